@@ -1,0 +1,120 @@
+"""The ``micropit`` command (also ``python -m micropit_hpc``). Thin: parse, call, report.
+
+Errors the user can fix (bad scene files, a broken environment) are printed as one line
+``micropit: error: ...`` with exit code 2 and no traceback, unless ``--debug`` is given.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+
+from micropit_hpc import __version__
+from micropit_hpc.errors import MicropitError, SceneError
+
+EXIT_USER_ERROR = 2
+
+
+def _cmd_contact(args: argparse.Namespace) -> int:
+    from micropit_hpc.conditions import contact_study
+    from micropit_hpc.parallel import world
+    from micropit_hpc.report import contact_csv, path_summary, write_text_atomic
+    from micropit_hpc.scene import load_scene
+
+    comm = world()
+    study = contact_study(load_scene(args.scene))
+    if comm.rank == 0:
+        table = contact_csv(study)
+        print("\n".join("# " + line for line in path_summary(study)))
+        print(table, end="", flush=True)
+        if args.csv:
+            write_text_atomic(args.csv, table)
+            print(f"# wrote {args.csv}", flush=True)
+    return 0
+
+
+def _cmd_check_env(args: argparse.Namespace) -> int:
+    from micropit_hpc.checkenv import main as check_env
+
+    return check_env(args.expect_ranks)
+
+
+def _cmd_scene(args: argparse.Namespace) -> int:
+    from micropit_hpc.scene import keys_markdown, load_scene
+
+    if args.help_keys:
+        print(keys_markdown())
+        return 0
+    if not args.scene:
+        raise MicropitError("give a scene file to check, or --help-keys for the key reference")
+    for path in args.scene:
+        scene = load_scene(path)
+        if scene.gear is not None:
+            pos = scene.positions
+            n = pos.count if pos.kind == "count" else len(pos.values)
+            what = f"gear pair z1 = {scene.gear.geometry.z1}, z2 = {scene.gear.geometry.z2}, " \
+                   f"{n} positions given by {pos.kind.replace('_', ' ')}"
+        else:
+            what = f"disc rig, {len(scene.disc.slide_roll)} slide-roll ratios"
+        print(f"{path}: valid scene '{scene.name}': {what}")
+    return 0
+
+
+def _launcher_rank() -> int:
+    for var in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
+        value = os.environ.get(var, "")
+        if value.isdigit():
+            return int(value)
+    return 0
+
+
+def build_parser() -> argparse.ArgumentParser:
+    common = argparse.ArgumentParser(add_help=False)
+    common.add_argument("--debug", action="store_true",
+                        help="show the Python traceback of errors")
+    parser = argparse.ArgumentParser(
+        prog="micropit", parents=[common],
+        description="Micropitting of rough, lubricated rolling-sliding contacts (gears, disc "
+                    "rigs). Scene keys: micropit scene --help-keys.")
+    parser.add_argument("--version", action="version", version=f"micropit_hpc {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+
+    p = sub.add_parser("contact", parents=[common],
+                       help="contact conditions at every position of a scene",
+                       description="Print the smooth contact conditions (load, Hertz, "
+                                   "speeds, film, Λ) at every position of SCENE as CSV, "
+                                   "after the path-of-contact summary (lines starting with #).")
+    p.add_argument("scene", metavar="SCENE", help="scene file (TOML)")
+    p.add_argument("--csv", metavar="FILE", help="also write the table to FILE (CSV only)")
+    p.set_defaults(func=_cmd_contact)
+
+    p = sub.add_parser("check-env", parents=[common],
+                       help="check MPI, parallel HDF5, PETSc and FFTW (run under mpirun)",
+                       description="Check that this environment can run micropit_hpc in "
+                                   "parallel; exit 1 naming each problem.")
+    p.add_argument("--expect-ranks", type=int, metavar="N",
+                   help="fail unless exactly N ranks are running")
+    p.set_defaults(func=_cmd_check_env)
+
+    p = sub.add_parser("scene", parents=[common], help="check scene files; list every key",
+                       description="Validate scene files, or print the reference of every "
+                                   "scene key (--help-keys).")
+    p.add_argument("scene", nargs="*", metavar="SCENE", help="scene files to check")
+    p.add_argument("--help-keys", action="store_true",
+                   help="print every scene key with unit, default, range and meaning")
+    p.set_defaults(func=_cmd_scene)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args)
+    except MicropitError as e:
+        if args.debug:
+            raise
+        if isinstance(e, SceneError) and _launcher_rank() > 0:
+            return EXIT_USER_ERROR  # every rank read the same file: rank 0 says it once
+        print(f"micropit: error: {e}", file=sys.stderr, flush=True)
+        return EXIT_USER_ERROR

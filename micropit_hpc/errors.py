@@ -1,0 +1,37 @@
+"""Exceptions that reach the user as one plain line (the CLI prints them without a traceback)."""
+
+from __future__ import annotations
+
+
+class MicropitError(Exception):
+    """Base class of every error the user can fix (bad input, missing environment)."""
+
+
+class SceneError(MicropitError):
+    """A scene file that cannot be used, with the file, the key, the value and what is allowed."""
+
+    def __init__(self, source: str, problem: str, key: str | None = None, value: object = None,
+                 allowed: str | None = None):
+        self.source, self.key, self.value, self.problem, self.allowed = (
+            source, key, value, problem, allowed)
+        where = f"{source}: " if source else ""
+        if key is None:
+            text = f"{where}{problem}"
+        else:
+            text = f"{where}{key} = {format_value(value)}: {problem}"
+        if allowed:
+            text += f" (allowed: {allowed})"
+        super().__init__(text)
+
+
+def format_value(value: object) -> str:
+    """A value as it would be written in TOML, for error messages."""
+    if isinstance(value, str):
+        return f'"{value}"'
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, list | tuple):
+        return "[" + ", ".join(format_value(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {format_value(v)}" for k, v in value.items()) + "}"
+    return repr(value)

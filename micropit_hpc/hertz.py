@@ -1,0 +1,95 @@
+"""Smooth (Hertz) contact of two elastic bodies: line contact and elliptical point contact.
+
+Conventions (MODEL.md §1, §2.2): 2/E' = (1-ν1²)/E1 + (1-ν2²)/E2 and E* = E'/2; pressure is
+positive in compression; x is the rolling direction, y across it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.optimize import brentq
+from scipy.special import ellipe, ellipk
+
+
+def reduced_modulus(E1: float, nu1: float, E2: float, nu2: float) -> float:
+    """E' from 2/E' = (1-ν1²)/E1 + (1-ν2²)/E2 (MODEL.md §1). E* = E'/2."""
+    return 2.0 / ((1.0 - nu1**2) / E1 + (1.0 - nu2**2) / E2)
+
+
+def line_contact(w, R, E_star):
+    """Hertz line contact: semi-width b and peak pressure p0 (MODEL.md §2.2).
+
+    b = √(4 w R / (π E*)),  p0 = 2 w / (π b) = √(w E* / (π R)).
+
+    ``w`` is the load per unit length [N/m], ``R`` the reduced radius [m], ``E_star`` [Pa].
+    Vectorised; a zero load gives b = p0 = 0. Source: Johnson, Contact Mechanics (1985) eq. 4.45.
+    """
+    w, R = np.asarray(w, dtype=float), np.asarray(R, dtype=float)
+    b = np.sqrt(4.0 * w * R / (math.pi * E_star))
+    p0 = np.sqrt(w * E_star / (math.pi * R))
+    return b, p0
+
+
+@dataclass(frozen=True)
+class EllipticalHertz:
+    """Hertz elliptical contact: semi-axes along x (rolling) and y, peak pressure, total load."""
+
+    ax: float
+    ay: float
+    p0: float
+    load: float
+
+    @property
+    def mean_pressure(self) -> float:
+        return 2.0 * self.p0 / 3.0
+
+
+def _curvature_ratio(m: float) -> float:
+    """B/A of an ellipse with e² = m (a ≥ b): [E(e)/(1-e²) - K(e)] / [K(e) - E(e)] (Johnson 3.64)."""
+    K, E = ellipk(m), ellipe(m)
+    return (E / (1.0 - m) - K) / (K - E)
+
+
+def elliptical_contact(Rx: float, Ry: float, E_star: float, *, load: float | None = None,
+                       p0: float | None = None) -> EllipticalHertz:
+    """Hertz contact of two bodies with reduced radii Rx, Ry, given either the load or p0.
+
+    With a ≥ b the semi-axes, e² = 1 - b²/a², K, E the complete elliptic integrals and
+    A ≤ B the relative curvatures 1/(2R) (B along the minor axis b), Johnson (Contact Mechanics,
+    1985, eqs. 3.64) gives
+        A = p0 b (K - E) / (E* e² a²),   B = p0 b [(a²/b²) E - K] / (E* e² a²),
+    so B/A fixes e, then a³ = 3F (K - E) / (2π E* e² A) for a given load F, or
+    a = p0 √(1-e²) (K - E) / (E* e² A) for a given p0; F = (2π/3) a b p0.
+    The circular limit (Rx = Ry = R) is a = (3FR/(4E*))^{1/3}.
+    """
+    if (load is None) == (p0 is None):
+        raise ValueError("give exactly one of load and p0")
+    Ax, Ay = 1.0 / (2.0 * Rx), 1.0 / (2.0 * Ry)
+    A, B = min(Ax, Ay), max(Ax, Ay)
+    ratio = B / A
+    if ratio - 1.0 < 1e-9:  # circle: (K - E)/e² -> π/4, √(1-e²) -> 1
+        g = math.pi / 4.0
+        m = 0.0
+    else:
+        hi = 1.0 - 1e-15
+        if _curvature_ratio(hi) < ratio:
+            raise ValueError(f"curvature ratio {ratio:g} too large for an elliptical contact; "
+                             "treat it as a line contact")
+        m = brentq(lambda q: _curvature_ratio(q) - ratio, 1e-14, hi, xtol=1e-16, rtol=1e-15)
+        g = (ellipk(m) - ellipe(m)) / m
+    s = math.sqrt(1.0 - m)  # b/a
+    if load is not None:
+        a = (3.0 * load * g / (2.0 * math.pi * E_star * A)) ** (1.0 / 3.0)
+        b = a * s
+        p = 3.0 * load / (2.0 * math.pi * a * b) if load > 0 else 0.0
+        F = load
+    else:
+        a = p0 * s * g / (E_star * A)
+        b = a * s
+        p, F = p0, 2.0 * math.pi * a * b * p0 / 3.0
+    # the minor axis b lies along the direction of larger curvature (smaller radius)
+    ax, ay = (b, a) if Ax >= Ay else (a, b)
+    return EllipticalHertz(ax=ax, ay=ay, p0=p, load=F)

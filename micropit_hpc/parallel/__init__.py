@@ -1,0 +1,46 @@
+"""Everything that knows about MPI ranks beyond a communicator argument lives in this package."""
+
+from __future__ import annotations
+
+import os
+
+# Environment variables by which launchers announce the number of ranks they started.
+LAUNCHER_SIZE_VARS = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS",
+                      "SLURM_STEP_NUM_TASKS")
+
+
+def launcher_size() -> int | None:
+    """The number of ranks the launcher says it started, or None outside a launcher."""
+    for var in LAUNCHER_SIZE_VARS:
+        value = os.environ.get(var)
+        if value and value.isdigit():
+            return int(value)
+    return None
+
+
+class SerialComm:
+    """A one-rank stand-in for ``MPI.COMM_WORLD`` when mpi4py is not installed."""
+
+    rank = 0
+    size = 1
+
+    def bcast(self, obj, root=0):
+        return obj
+
+    def allgather(self, obj):
+        return [obj]
+
+    def gather(self, obj, root=0):
+        return [obj]
+
+    def Barrier(self):
+        pass
+
+
+def world():
+    """``MPI.COMM_WORLD``, or a :class:`SerialComm` if mpi4py cannot be imported."""
+    try:
+        from mpi4py import MPI
+    except ImportError:
+        return SerialComm()
+    return MPI.COMM_WORLD

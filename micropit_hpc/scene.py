@@ -1,0 +1,498 @@
+"""Scene files: TOML in engineering units -> typed, validated dataclasses in SI units.
+
+A scene describes one study: a spur gear pair (``[gear]`` + ``[positions]``) or a disc rig
+(``[disc]``), the two bodies, the lubricant and the film model. Every key is declared in
+:data:`SECTIONS` (type, unit, default, allowed range, meaning); ``micropit scene --help-keys``
+and docs/scenes.md are generated from it. Bad input raises :class:`SceneError` naming the file,
+the key, the value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from micropit_hpc.errors import SceneError, format_value
+from micropit_hpc.film import FILM_MODELS, THERMAL_MODELS
+from micropit_hpc.gear import (
+    LOAD_SHARING,
+    GearGeometry,
+    GearMesh,
+    MeshingError,
+    zero_backlash_centre_distance,
+)
+from micropit_hpc.schema import Key, Section, check_unknown, keys_reference, read_section
+
+DEG = math.pi / 180.0
+MM = 1e-3
+UM = 1e-6
+GPA = 1e9
+RPM = 2.0 * math.pi / 60.0
+
+# --------------------------------------------------------------------------------------------
+# key declarations
+# --------------------------------------------------------------------------------------------
+TOP_LEVEL = ("study", "gear", "disc", "body1", "body2", "lubricant", "film", "hertz", "positions")
+
+_STUDY = Section("study", "What the study is called.", (
+    Key("name", "name", "str", "Name of the study, used for output folders. Default: the file "
+        "name without .toml.", default=None),
+    Key("description", "description", "str", "Free text: where the numbers come from.",
+        default=""),
+))
+
+_GEAR = Section("gear", """
+An external involute spur gear pair (MODEL.md §2.1). Gear 1 is the pinion (body 1) and drives;
+gear 2 is the wheel (body 2). Give either `[gear]` with `[positions]`, or `[disc]`.
+""", (
+    Key("module_mm", "module", "float", "Normal module m.", "mm", MM, lo=0, lo_open=True),
+    Key("pressure_angle_deg", "pressure_angle", "float", "Reference pressure angle α.", "deg",
+        DEG, lo=0, hi=45, lo_open=True, hi_open=True),
+    Key("centre_distance_mm", "centre_distance", "float",
+        "Operating centre distance a. Default: the zero-backlash centre distance of the profile "
+        "shifts (ISO 21771).", "mm", MM, default=None, lo=0, lo_open=True),
+    Key("facewidth_mm", "facewidth", "float", "Common facewidth b_w carrying the load.", "mm",
+        MM, lo=0, lo_open=True),
+    Key("torque_Nm", "torque", "float", "Torque on gear 1 (the driver); the normal load per "
+        "unit facewidth is w = X T1 / (r_b1 b_w).", "N·m", 1.0, lo=0, lo_open=True),
+    Key("speed_rpm", "speed", "float", "Rotational speed of gear 1.", "rpm", RPM, lo=0,
+        lo_open=True),
+    Key("load_sharing", "load_sharing", "str", "Load-sharing model X along the path: `linear` "
+        "(tip relief for smooth meshing: 0→1 over A–B, 1 over B–D, 1→0 over D–E), "
+        "`iso_unmodified` (ISO/TS 6336-22 Method B ramps (Q−2)/15 + t/3 for unmodified "
+        "profiles), `none` (X = 1).", default="linear", choices=LOAD_SHARING),
+    Key("accuracy_grade", "accuracy_grade", "int", "ISO 1328 accuracy grade Q, used only by "
+        "`load_sharing = \"iso_unmodified\"`.", default=7, lo=2, hi=12),
+), children=("pinion", "wheel"))
+
+
+def _wheel_section(path: str, which: str) -> Section:
+    return Section(path, f"Gear {which} of the pair.", (
+        Key("teeth", "teeth", "int", "Number of teeth z.", lo=5, hi=100000),
+        Key("profile_shift", "profile_shift", "float", "Profile shift coefficient x.",
+            default=0.0, lo=-1.5, hi=1.5),
+        Key("tip_diameter_mm", "tip_diameter", "float", "Tip diameter d_a. Default: the "
+            "standard d + 2m(1 + x).", "mm", MM, default=None, lo=0, lo_open=True),
+        Key("root_diameter_mm", "root_diameter", "float", "Root diameter d_f, used only to "
+            "check tip-root clearance. Default: d − 2m(1.25 − x).", "mm", MM, default=None, lo=0,
+            lo_open=True),
+    ))
+
+
+_PINION = _wheel_section("gear.pinion", "1 (the pinion, body 1, the driver)")
+_WHEEL = _wheel_section("gear.wheel", "2 (the wheel, body 2, driven)")
+
+
+def _body_section(path: str, which: str) -> Section:
+    return Section(path, f"Material and roughness of body {which}.", (
+        Key("E_GPa", "E", "float", "Young's modulus.", "GPa", GPA, default=210.0, lo=0,
+            lo_open=True),
+        Key("nu", "nu", "float", "Poisson's ratio.", default=0.3, lo=-1, hi=0.5, lo_open=True,
+            hi_open=True),
+        Key("Rq_um", "Rq", "float", "RMS roughness R_q of the surface.", "µm", UM, lo=0),
+    ))
+
+
+_BODY1 = _body_section("body1", "1 (the pinion or the test roller)")
+_BODY2 = _body_section("body2", "2 (the wheel or the counterface)")
+
+_LUBRICANT = Section("lubricant", """
+Lubricant at the contact inlet temperature. Required unless `[film] hc_um` gives the film.
+""", (
+    Key("eta0_mPas", "eta0", "float", "Dynamic viscosity η0 at ambient pressure.", "mPa·s",
+        1e-3, default=None, lo=0, lo_open=True),
+    Key("alpha_pv_1_per_GPa", "alpha_pv", "float", "Barus pressure-viscosity coefficient α.",
+        "1/GPa", 1e-9, default=None, lo=0),
+    Key("beta_1_per_K", "beta", "float", "Temperature-viscosity coefficient β, for "
+        "`thermal = \"wilson_sheu\"`.", "1/K", 1.0, default=None, lo=0, lo_open=True),
+    Key("conductivity_W_per_mK", "conductivity", "float", "Thermal conductivity k_f of the oil, "
+        "for `thermal = \"wilson_sheu\"`.", "W/(m·K)", 1.0, default=None, lo=0, lo_open=True),
+))
+
+_FILM = Section("film", "Central film thickness of the smooth contact (MODEL.md §2.4).", (
+    Key("model", "model", "str", "`DH61` (line, Dowson–Higginson 1961, ISO/TS 6336-22), `DH66` "
+        "(line), `HD77c` (elliptical, Hamrock–Dowson central); `auto` picks DH61 for line and "
+        "HD77c for elliptical contacts.", default="auto", choices=("auto", *FILM_MODELS)),
+    Key("thermal", "thermal", "str", "Inlet shear-heating factor φ_T: `none` (isothermal, "
+        "reproduces the paper) or `wilson_sheu`.", default="none", choices=THERMAL_MODELS),
+    Key("hc_um", "hc", "float", "Central film thickness given directly (e.g. measured); "
+        "replaces the formula and the thermal factor.", "µm", UM, default=None, lo=0,
+        lo_open=True),
+    Key("lambda_roughness", "lambda_roughness", "str", "Roughness in Λ = h_c/R_q: `composite` "
+        "√(R_q1² + R_q2²), or one body's R_q (`body2`: the counterface only, as the paper's MPR "
+        "tests define Λ).", default="composite", choices=("composite", "body1", "body2")),
+))
+
+_HERTZ = Section("hertz", "Overrides of the smooth Hertz contact (MODEL.md §2.2, §2.5).", (
+    Key("E_star_GPa", "E_star", "float", "Contact modulus E* used in the Hertz formulas only "
+        "(the film keeps the materials' E'). Default: E'/2 from the bodies. The paper's Tables "
+        "3 and 7 use 210 (Young's modulus in place of E*); see MODEL.md §2.5.", "GPa", GPA,
+        default=None, lo=0, lo_open=True),
+))
+
+_POSITIONS = Section("positions", """
+Where along the path of contact of a gear pair to evaluate; give exactly one key. Points must lie
+on the loaded path: from A to E, end points excluded when the load sharing is `linear` (they carry
+no load).
+""", (
+    Key("roll_angle_deg", "roll_angle", "floats", "Roll angles of gear 1, φ1 = ρ1/r_b1.", "deg",
+        DEG, default=None),
+    Key("radial_pos_mm", "radial_position", "floats", "Tooth-centre radial positions on gear 1, "
+        "y = r cos ψ(r) (how the paper locates points).", "mm", MM, default=None),
+    Key("modules_below_tip", "modules_below_tip", "floats", "Tooth-centre radial positions as "
+        "k modules below the tip radius, y = r_a1 − k m (the paper's Table 7).", "modules", 1.0,
+        default=None, lo=0),
+    Key("n", "count", "int", "n points at the centres of n equal intervals from A to E.",
+        default=None, lo=1, hi=100000),
+))
+
+_DISC = Section("disc", """
+A disc rig (e.g. the MPR triple-disc rig): two bodies with given radii of curvature, run at a
+given entrainment speed and a list of slide-roll ratios, one contact per ratio. Body 1 is the
+test roller. Without `radius*_y_mm` the contact is a line contact.
+""", (
+    Key("p0_GPa", "p0", "float", "Maximum Hertz pressure (give this, `load_N` or "
+        "`load_N_per_m`).", "GPa", GPA, default=None, lo=0, lo_open=True),
+    Key("load_N", "load", "float", "Normal load of an elliptical contact.", "N", 1.0,
+        default=None, lo=0, lo_open=True),
+    Key("load_N_per_m", "load_per_length", "float", "Normal load per unit length of a line "
+        "contact.", "N/m", 1.0, default=None, lo=0, lo_open=True),
+    Key("u_mean_m_s", "u_mean", "float", "Entrainment speed ū = (u1 + u2)/2.", "m/s", 1.0, lo=0,
+        lo_open=True),
+    Key("slide_roll", "slide_roll", "floats", "Slide-roll ratios S = (u1 − u2)/ū, one contact "
+        "each; |S| = 2 is pure sliding.", default=None, lo=-2, hi=2),
+    Key("radius1_x_mm", "radius1_x", "float", "Radius of curvature of body 1 in the rolling "
+        "direction.", "mm", MM, lo=0, lo_open=True),
+    Key("radius2_x_mm", "radius2_x", "float", "Radius of curvature of body 2 in the rolling "
+        "direction.", "mm", MM, lo=0, lo_open=True),
+    Key("radius1_y_mm", "radius1_y", "float", "Radius of curvature of body 1 across the "
+        "rolling direction (crown). Default: straight.", "mm", MM, default=None, lo=0,
+        lo_open=True),
+    Key("radius2_y_mm", "radius2_y", "float", "Radius of curvature of body 2 across the "
+        "rolling direction. Default: straight.", "mm", MM, default=None, lo=0, lo_open=True),
+))
+
+SECTIONS: tuple[Section, ...] = (_STUDY, _GEAR, _PINION, _WHEEL, _POSITIONS, _DISC, _BODY1,
+                                 _BODY2, _LUBRICANT, _FILM, _HERTZ)
+
+_KEYS_PREAMBLE = """
+Scene files are TOML. Keys carry their unit in their name (`module_mm`, `torque_Nm`, `p0_GPa`);
+values are converted to SI once, when the file is read. Every key below is checked: unknown keys
+(with a suggestion), wrong types, NaN or infinite numbers and values out of range are refused with
+a one-line message naming the file, the key, the value and what is allowed. Example scenes are in
+`scenes/`. Generated by `micropit scene --help-keys`; do not edit by hand.
+"""
+
+
+def keys_markdown() -> str:
+    """The key reference, as in docs/scenes.md."""
+    return keys_reference(SECTIONS, "Scene file keys", _KEYS_PREAMBLE)
+
+
+# --------------------------------------------------------------------------------------------
+# the typed scene
+# --------------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Body:
+    """Material and roughness of one body (SI)."""
+
+    E: float
+    nu: float
+    Rq: float
+
+
+@dataclass(frozen=True)
+class Lubricant:
+    eta0: float | None
+    alpha_pv: float | None
+    beta: float | None
+    conductivity: float | None
+
+
+@dataclass(frozen=True)
+class FilmSpec:
+    model: str
+    thermal: str
+    hc: float | None
+    lambda_roughness: str
+
+
+@dataclass(frozen=True)
+class GearSpec:
+    """A gear pair and how it runs: torque on and speed of gear 1 [N m, rad/s]."""
+
+    geometry: GearGeometry
+    torque: float
+    speed: float
+    load_sharing: str
+    accuracy_grade: int
+
+
+@dataclass(frozen=True)
+class PositionSpec:
+    """Positions along the path: ``kind`` is roll_angle [rad], radial_position [m],
+    modules_below_tip [-] (with ``values``) or count (with ``count``)."""
+
+    kind: str
+    values: tuple[float, ...] = ()
+    count: int = 0
+
+
+@dataclass(frozen=True)
+class DiscSpec:
+    """A disc rig (SI). Radii across rolling are infinite for straight generators."""
+
+    u_mean: float
+    slide_roll: tuple[float, ...]
+    radius1_x: float
+    radius2_x: float
+    radius1_y: float
+    radius2_y: float
+    p0: float | None
+    load: float | None
+
+    @property
+    def Rx(self) -> float:
+        return 1.0 / (1.0 / self.radius1_x + 1.0 / self.radius2_x)
+
+    @property
+    def Ry(self) -> float:
+        curvature = 1.0 / self.radius1_y + 1.0 / self.radius2_y
+        return math.inf if curvature == 0.0 else 1.0 / curvature
+
+    @property
+    def is_line(self) -> bool:
+        return math.isinf(self.Ry)
+
+
+@dataclass(frozen=True)
+class Scene:
+    """A validated scene, SI units. ``document`` is the TOML as read (for results files)."""
+
+    source: str
+    name: str
+    description: str
+    body1: Body
+    body2: Body
+    lubricant: Lubricant
+    film: FilmSpec
+    hertz_E_star: float | None
+    gear: GearSpec | None = None
+    positions: PositionSpec | None = None
+    disc: DiscSpec | None = None
+    document: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+
+    @property
+    def kind(self) -> str:
+        return "gear" if self.gear is not None else "disc"
+
+
+# --------------------------------------------------------------------------------------------
+# reading
+# --------------------------------------------------------------------------------------------
+def load_scene(path: str | Path) -> Scene:
+    """Read and validate a scene file; raise :class:`SceneError` on any problem."""
+    source = str(path)
+    try:
+        data = Path(path).read_bytes()
+    except FileNotFoundError:
+        raise SceneError(source, "no such scene file") from None
+    except IsADirectoryError:
+        raise SceneError(source, "is a directory, not a scene file") from None
+    except OSError as e:
+        raise SceneError(source, f"cannot be read: {e.strerror}") from None
+    try:
+        doc = tomllib.loads(data.decode("utf-8"))
+    except UnicodeDecodeError:
+        raise SceneError(source, "is not UTF-8 text (a TOML scene file was expected)") from None
+    except tomllib.TOMLDecodeError as e:
+        raise SceneError(source, f"not valid TOML: {e}") from None
+    return scene_from_dict(doc, source=source)
+
+
+def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
+    """Validate a parsed TOML document and build the :class:`Scene`."""
+    check_unknown(doc, TOP_LEVEL, "", source)
+    study = read_section(doc.get("study"), _STUDY, source)
+    has_gear, has_disc = "gear" in doc, "disc" in doc
+    if has_gear == has_disc:
+        raise SceneError(source, "give exactly one of the tables [gear] (a gear pair) and [disc] "
+                                 f"(a disc rig); found {'both' if has_gear else 'neither'}")
+    for name in ("body1", "body2"):
+        if name not in doc:
+            raise SceneError(source, f"missing table [{name}] (material and roughness of "
+                                     f"{name}; at least Rq_um)")
+    body1 = Body(**read_section(doc["body1"], _BODY1, source))
+    body2 = Body(**read_section(doc["body2"], _BODY2, source))
+    lub = Lubricant(**read_section(doc.get("lubricant"), _LUBRICANT, source))
+    film_v = read_section(doc.get("film"), _FILM, source)
+    hertz_v = read_section(doc.get("hertz"), _HERTZ, source)
+
+    gear = positions = disc = None
+    if has_gear:
+        gear = _read_gear(doc["gear"], source)
+        positions = _read_positions(doc, gear, source)
+        line = True
+    else:
+        if "positions" in doc:
+            raise SceneError(source, "[positions] belongs to a gear scene; a disc rig has one "
+                                     "contact per value of disc.slide_roll")
+        disc = _read_disc(doc["disc"], source)
+        line = disc.is_line
+
+    film = _check_film(film_v, lub, line, source)
+    name = study["name"] or Path(source).stem
+    return Scene(source=source, name=name, description=study["description"], body1=body1,
+                 body2=body2, lubricant=lub, film=film, hertz_E_star=hertz_v["E_star"],
+                 gear=gear, positions=positions, disc=disc, document=dict(doc))
+
+
+_GEOMETRY_KEYS = {
+    "centre_distance": "gear.centre_distance_mm",
+    "tip_radius1": "gear.pinion.tip_diameter_mm", "tip_radius2": "gear.wheel.tip_diameter_mm",
+    "root_radius1": "gear.pinion.root_diameter_mm",
+    "root_radius2": "gear.wheel.root_diameter_mm",
+    "x1": "gear.pinion.profile_shift", "x2": "gear.wheel.profile_shift",
+}
+
+
+def _lookup(doc: Mapping[str, Any], dotted: str) -> Any:
+    node: Any = doc
+    for part in dotted.split("."):
+        if not isinstance(node, Mapping) or part not in node:
+            return None
+        node = node[part]
+    return node
+
+
+def _read_gear(table: Mapping[str, Any], source: str) -> GearSpec:
+    g = read_section(table, _GEAR, source)
+    for part in ("pinion", "wheel"):
+        if part not in table:
+            raise SceneError(source, f"missing table [gear.{part}] (at least its number of "
+                                     "teeth, e.g. teeth = 23)")
+    p = read_section(table["pinion"], _PINION, source)
+    w = read_section(table["wheel"], _WHEEL, source)
+    m, alpha = g["module"], g["pressure_angle"]
+
+    def radii(t: dict[str, Any]) -> tuple[float, float]:
+        d = m * t["teeth"]
+        tip = t["tip_diameter"] if t["tip_diameter"] is not None else d + 2 * m * (
+            1 + t["profile_shift"])
+        root = t["root_diameter"] if t["root_diameter"] is not None else d - 2 * m * (
+            1.25 - t["profile_shift"])
+        return tip / 2, root / 2
+
+    (ra1, rf1), (ra2, rf2) = radii(p), radii(w)
+    doc = {"gear": table}
+    try:
+        a = g["centre_distance"]
+        if a is None:
+            a = zero_backlash_centre_distance(m, alpha, p["teeth"], w["teeth"],
+                                              p["profile_shift"], w["profile_shift"])
+        geo = GearGeometry(module=m, pressure_angle=alpha, z1=p["teeth"], z2=w["teeth"],
+                           x1=p["profile_shift"], x2=w["profile_shift"], tip_radius1=ra1,
+                           tip_radius2=ra2, root_radius1=rf1, root_radius2=rf2,
+                           centre_distance=a, facewidth=g["facewidth"])
+        GearMesh.from_geometry(geo)
+    except MeshingError as e:
+        keys = []
+        for f in e.fields:
+            dotted = _GEOMETRY_KEYS[f]
+            v = _lookup(doc, dotted)
+            keys.append(f"{dotted} = {format_value(v)}" if v is not None else
+                        f"{dotted} (default)")
+        raise SceneError(source, f"the gear pair cannot mesh: {e}; check {', '.join(keys)}"
+                         ) from None
+    return GearSpec(geometry=geo, torque=g["torque"], speed=g["speed"],
+                    load_sharing=g["load_sharing"], accuracy_grade=g["accuracy_grade"])
+
+
+_POSITION_KEYS = {"roll_angle": "roll_angle_deg", "radial_position": "radial_pos_mm",
+                  "modules_below_tip": "modules_below_tip"}
+
+
+def _read_positions(doc: Mapping[str, Any], gear: GearSpec, source: str) -> PositionSpec:
+    if "positions" not in doc:
+        raise SceneError(source, "missing table [positions]: say where along the path of contact "
+                                 "to evaluate (roll_angle_deg, radial_pos_mm, modules_below_tip "
+                                 "or n)")
+    v = read_section(doc["positions"], _POSITIONS, source)
+    given = [k for k in ("roll_angle", "radial_position", "modules_below_tip", "count")
+             if v[k] is not None]
+    if len(given) != 1:
+        names = ", ".join(f"positions.{_POSITIONS.keys[i].name}" for i in range(4))
+        raise SceneError(source, f"give exactly one of {names}; found "
+                                 f"{len(given) if given else 'none'}")
+    kind = given[0]
+    if kind == "count":
+        return PositionSpec(kind="count", count=v["count"])
+    values = v[kind]
+    mesh = GearMesh.from_geometry(gear.geometry)
+    key = _POSITIONS.key(_POSITION_KEYS[kind])
+    open_ends = gear.load_sharing == "linear"
+    lo, hi = mesh.position_range(kind)
+    for i, value in enumerate(values):
+        inside = (lo < value < hi) if open_ends else (lo <= value <= hi)
+        if not inside:
+            op = "<" if open_ends else "≤"
+            ends = " (the end points carry no load with linear load sharing)" if open_ends else ""
+            raise SceneError(
+                source, "outside the loaded path of contact A–E" + ends,
+                key=f"positions.{key.name}[{i}]", value=doc["positions"][key.name][i],
+                allowed=f"{lo / key.scale:.6g} {op} value {op} {hi / key.scale:.6g} {key.unit}")
+    return PositionSpec(kind=kind, values=values)
+
+
+def _read_disc(table: Mapping[str, Any], source: str) -> DiscSpec:
+    v = read_section(table, _DISC, source)
+    if v["slide_roll"] is None:
+        raise SceneError(source, "missing required key 'disc.slide_roll' (one contact per "
+                                 "slide-roll ratio, e.g. slide_roll = [0.05, 0.15, 0.3])")
+    ry1 = v["radius1_y"] if v["radius1_y"] is not None else math.inf
+    ry2 = v["radius2_y"] if v["radius2_y"] is not None else math.inf
+    line = math.isinf(ry1) and math.isinf(ry2)
+    loads = {"p0_GPa": v["p0"], "load_N": v["load"], "load_N_per_m": v["load_per_length"]}
+    given = [k for k, x in loads.items() if x is not None]
+    if len(given) != 1:
+        raise SceneError(source, "give exactly one of disc.p0_GPa, disc.load_N, "
+                                 f"disc.load_N_per_m; found {len(given) if given else 'none'}")
+    if line and "load_N" in given:
+        raise SceneError(source, "a line contact (no radius1_y_mm or radius2_y_mm) carries a "
+                                 "load per unit length: use load_N_per_m or p0_GPa",
+                         key="disc.load_N", value=table["load_N"])
+    if not line and "load_N_per_m" in given:
+        raise SceneError(source, "an elliptical contact (radius*_y_mm given) carries a total "
+                                 "load: use load_N or p0_GPa", key="disc.load_N_per_m",
+                         value=table["load_N_per_m"])
+    load = v["load"] if v["load"] is not None else v["load_per_length"]
+    return DiscSpec(u_mean=v["u_mean"], slide_roll=v["slide_roll"], radius1_x=v["radius1_x"],
+                    radius2_x=v["radius2_x"], radius1_y=ry1, radius2_y=ry2, p0=v["p0"],
+                    load=load)
+
+
+def _check_film(v: dict[str, Any], lub: Lubricant, line: bool, source: str) -> FilmSpec:
+    model = v["model"]
+    if model == "auto":
+        model = "DH61" if line else "HD77c"
+    geometry = "line" if line else "elliptical"
+    if (model == "HD77c") == line:
+        wanted = "DH61 or DH66" if not line else "HD77c"
+        raise SceneError(source, f"this is {'an' if not line else 'a'} {geometry} contact; its "
+                                 f"film model is {wanted}", key="film.model", value=v["model"])
+    if v["hc"] is None:
+        for attr, key in (("eta0", "eta0_mPas"), ("alpha_pv", "alpha_pv_1_per_GPa")):
+            if getattr(lub, attr) is None:
+                raise SceneError(source, f"missing key 'lubricant.{key}': the film is computed "
+                                         "from the lubricant because film.hc_um is not given")
+        if v["thermal"] == "wilson_sheu":
+            for attr, key in (("beta", "beta_1_per_K"), ("conductivity", "conductivity_W_per_mK")):
+                if getattr(lub, attr) is None:
+                    raise SceneError(source, f"missing key 'lubricant.{key}': film.thermal = "
+                                             "\"wilson_sheu\" needs it")
+    return FilmSpec(model=model, thermal=v["thermal"], hc=v["hc"],
+                    lambda_roughness=v["lambda_roughness"])

@@ -1,0 +1,231 @@
+"""Scene-file schema: typed keys with units, ranges and documentation, and the validator.
+
+A scene file is TOML. Every key is declared once here (by the scene module) as a :class:`Key`
+with its type, its unit (named in the key, e.g. ``module_mm``), the factor that converts it to SI,
+its default and its allowed range. The same declarations drive validation, the conversion to SI
+(done once, at load time) and the key reference (``micropit scene --help-keys``, docs/scenes.md),
+so the documentation cannot drift from what the code accepts.
+"""
+
+from __future__ import annotations
+
+import difflib
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from micropit_hpc.errors import SceneError, format_value
+
+
+class _Required:
+    def __repr__(self) -> str:
+        return "REQUIRED"
+
+
+REQUIRED: Any = _Required()
+"""Default of a key that must be given."""
+
+_TYPE_WORDS = {"float": "a number", "int": "an integer", "str": "a string", "bool": "true or false",
+               "floats": "a list of numbers"}
+
+
+@dataclass(frozen=True)
+class Key:
+    """One scene-file key.
+
+    ``default`` is in file units; ``None`` means optional and absent, :data:`REQUIRED` means the
+    key must be given. Numbers are multiplied by ``scale`` to give SI values. Bounds ``lo``/``hi``
+    apply in file units, open when ``lo_open``/``hi_open``.
+    """
+
+    name: str
+    attr: str
+    type: str
+    doc: str
+    unit: str = ""
+    scale: float = 1.0
+    default: Any = REQUIRED
+    lo: float | None = None
+    hi: float | None = None
+    lo_open: bool = False
+    hi_open: bool = False
+    choices: tuple[str, ...] = ()
+
+    def allowed(self) -> str:
+        """The allowed values in words, e.g. ``a number > 0 (mm)``."""
+        if self.choices:
+            return "one of " + ", ".join(f'"{c}"' for c in self.choices)
+        what = _TYPE_WORDS[self.type]
+        if self.type == "floats":
+            what = "a non-empty list of numbers"
+        rng = self.range_text()
+        unit = f" ({self.unit})" if self.unit else ""
+        if not rng:
+            return f"{what}{unit}" if self.type in ("float", "floats") else what
+        each = ", each" if self.type == "floats" else ""
+        return f"{what}{each} {rng}{unit}"
+
+    def range_text(self) -> str:
+        lo, hi = self.lo, self.hi
+        if lo is not None and hi is not None:
+            return (f"in {'(' if self.lo_open else '['}{_num(lo)}, {_num(hi)}"
+                    f"{')' if self.hi_open else ']'}")
+        if lo is not None:
+            return f"{'>' if self.lo_open else '≥'} {_num(lo)}"
+        if hi is not None:
+            return f"{'<' if self.hi_open else '≤'} {_num(hi)}"
+        return ""
+
+    def in_range(self, v: float) -> bool:
+        if self.lo is not None and (v < self.lo or (self.lo_open and v == self.lo)):
+            return False
+        return not (self.hi is not None and (v > self.hi or (self.hi_open and v == self.hi)))
+
+
+@dataclass(frozen=True)
+class Section:
+    """A TOML table of the scene file (``path`` is dotted, e.g. ``gear.pinion``)."""
+
+    path: str
+    doc: str
+    keys: tuple[Key, ...]
+    children: tuple[str, ...] = ()
+
+    def key(self, name: str) -> Key:
+        for k in self.keys:
+            if k.name == name:
+                return k
+        raise KeyError(name)
+
+    def dotted(self, name: str) -> str:
+        return f"{self.path}.{name}" if self.path else name
+
+
+def _num(x: float) -> str:
+    return f"{x:g}"
+
+
+def check_unknown(table: Mapping[str, Any], allowed: Sequence[str], where: str, source: str) -> None:
+    """Refuse keys that are not in ``allowed``, suggesting the closest allowed name."""
+    for name in table:
+        if name in allowed:
+            continue
+        dotted = f"{where}.{name}" if where else name
+        close = difflib.get_close_matches(name, list(allowed), n=1, cutoff=0.6)
+        hint = f"; did you mean '{close[0]}'?" if close else ""
+        scope = f"[{where}]" if where else "the top level"
+        raise SceneError(source, f"unknown key '{dotted}'{hint} "
+                                 f"(keys allowed in {scope}: {', '.join(allowed)})")
+
+
+def read_section(table: Any, section: Section, source: str) -> dict[str, Any]:
+    """Validate one table against its section and return ``{attr: SI value}`` for its own keys.
+
+    Sub-tables named in ``section.children`` are left to the caller.
+    """
+    if table is None:
+        table = {}
+    if not isinstance(table, Mapping):
+        raise SceneError(source, "must be a table ([" + section.path + "])", key=section.path,
+                         value=table)
+    check_unknown(table, [k.name for k in section.keys] + list(section.children), section.path,
+                  source)
+    for child in section.children:
+        if child in table and not isinstance(table[child], Mapping):
+            raise SceneError(source, "must be a table", key=section.dotted(child),
+                             value=table[child])
+    out: dict[str, Any] = {}
+    for key in section.keys:
+        dotted = section.dotted(key.name)
+        if key.name not in table:
+            if key.default is REQUIRED:
+                raise SceneError(source, f"missing required key '{dotted}' ({key.doc.split('.')[0]}; "
+                                         f"{key.allowed()})")
+            out[key.attr] = None if key.default is None else _convert(key, key.default, dotted,
+                                                                      source)
+        else:
+            out[key.attr] = _convert(key, table[key.name], dotted, source)
+    return out
+
+
+def _convert(key: Key, value: Any, dotted: str, source: str) -> Any:
+    t = key.type
+    if t == "float":
+        return _number(key, value, dotted, source) * key.scale
+    if t == "floats":
+        if not isinstance(value, list) or not value:
+            raise SceneError(source, "expected " + key.allowed(), key=dotted, value=value)
+        return tuple(_number(key, v, f"{dotted}[{i}]", source) * key.scale
+                     for i, v in enumerate(value))
+    if t == "int":
+        if isinstance(value, bool) or not isinstance(value, int):
+            raise SceneError(source, f"expected an integer, got {_kind(value)}", key=dotted,
+                             value=value, allowed=key.allowed())
+        if not key.in_range(value):
+            raise SceneError(source, "out of range", key=dotted, value=value, allowed=key.allowed())
+        return value
+    if t == "str":
+        if not isinstance(value, str):
+            raise SceneError(source, f"expected a string, got {_kind(value)}", key=dotted,
+                             value=value, allowed=key.allowed())
+        if key.choices and value not in key.choices:
+            close = difflib.get_close_matches(value, key.choices, n=1, cutoff=0.5)
+            hint = f"; did you mean \"{close[0]}\"?" if close else ""
+            raise SceneError(source, f"not a known choice{hint}", key=dotted, value=value,
+                             allowed=key.allowed())
+        return value
+    if t == "bool":
+        if not isinstance(value, bool):
+            raise SceneError(source, f"expected true or false, got {_kind(value)}", key=dotted,
+                             value=value)
+        return value
+    raise AssertionError(f"unknown key type {t!r}")  # a schema bug, not user input
+
+
+def _number(key: Key, value: Any, dotted: str, source: str) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise SceneError(source, f"expected a number, got {_kind(value)}", key=dotted,
+                         value=value, allowed=key.allowed())
+    v = float(value)
+    if not math.isfinite(v):
+        raise SceneError(source, "must be a finite number", key=dotted, value=value,
+                         allowed=key.allowed())
+    if not key.in_range(v):
+        raise SceneError(source, "out of range", key=dotted, value=value, allowed=key.allowed())
+    return v
+
+
+def _kind(value: Any) -> str:
+    if isinstance(value, bool):
+        return "a boolean"
+    if isinstance(value, str):
+        return "a string"
+    if isinstance(value, int):
+        return "an integer"
+    if isinstance(value, float):
+        return "a number"
+    if isinstance(value, list):
+        return "a list"
+    if isinstance(value, Mapping):
+        return "a table"
+    return type(value).__name__
+
+
+def keys_reference(sections: Sequence[Section], title: str, preamble: str) -> str:
+    """Markdown reference of every key (the content of docs/scenes.md)."""
+    lines = [f"# {title}", "", preamble.strip(), ""]
+    for s in sections:
+        lines += [f"## `[{s.path}]`", "", s.doc.strip(), "",
+                  "| key | unit | default | allowed | meaning |", "|---|---|---|---|---|"]
+        for k in s.keys:
+            if k.default is REQUIRED:
+                default = "**required**"
+            elif k.default is None:
+                default = "—"
+            else:
+                default = f"`{format_value(k.default)}`"
+            doc = k.doc.replace("|", "\\|")
+            lines.append(f"| `{k.name}` | {k.unit or '—'} | {default} | {k.allowed()} | {doc} |")
+        lines.append("")
+    return "\n".join(lines)
