@@ -47,10 +47,32 @@ class EllipticalHertz:
         return 2.0 * self.p0 / 3.0
 
 
+_SERIES_M = 1e-3
+_C = [(math.comb(2 * n, n) / 4.0**n) ** 2 for n in range(8)]  # K = π/2 Σ c_n m^n
+_D = [c / (1 - 2 * n) for n, c in enumerate(_C)]              # E = π/2 Σ d_n m^n
+
+
+def _elliptic_differences(m: float) -> tuple[float, float]:
+    """(K - E)/m and (E/(1-m) - K)/m for parameter m = e², the two differences in the Hertz
+    ellipse relations. Both cancel as m -> 0, so small m uses their power series
+    (Abramowitz & Stegun 17.3.11-12; truncation below 1e-18)."""
+    if m >= _SERIES_M:
+        K, E = ellipk(m), ellipe(m)
+        return (K - E) / m, (E / (1.0 - m) - K) / m
+    k_minus_e = sum((c - d) * m ** (n - 1) for n, (c, d) in enumerate(zip(_C, _D)) if n)
+    e_over = 0.0
+    cumulative = 0.0
+    for n, (c, d) in enumerate(zip(_C, _D)):
+        cumulative += d  # E/(1-m) = π/2 Σ_n m^n Σ_{j≤n} d_j
+        if n:
+            e_over += (cumulative - c) * m ** (n - 1)
+    return math.pi / 2 * k_minus_e, math.pi / 2 * e_over
+
+
 def _curvature_ratio(m: float) -> float:
     """B/A of an ellipse with e² = m (a ≥ b): [E(e)/(1-e²) - K(e)] / [K(e) - E(e)] (Johnson 3.64)."""
-    K, E = ellipk(m), ellipe(m)
-    return (E / (1.0 - m) - K) / (K - E)
+    k_minus_e, e_over = _elliptic_differences(m)
+    return e_over / k_minus_e
 
 
 def elliptical_contact(Rx: float, Ry: float, E_star: float, *, load: float | None = None,
@@ -70,16 +92,15 @@ def elliptical_contact(Rx: float, Ry: float, E_star: float, *, load: float | Non
     Ax, Ay = 1.0 / (2.0 * Rx), 1.0 / (2.0 * Ry)
     A, B = min(Ax, Ay), max(Ax, Ay)
     ratio = B / A
-    if ratio - 1.0 < 1e-9:  # circle: (K - E)/e² -> π/4, √(1-e²) -> 1
-        g = math.pi / 4.0
-        m = 0.0
+    if ratio == 1.0:  # circle: (K - E)/e² -> π/4, √(1-e²) -> 1
+        g, m = math.pi / 4.0, 0.0
     else:
         hi = 1.0 - 1e-15
         if _curvature_ratio(hi) < ratio:
             raise ValueError(f"curvature ratio {ratio:g} too large for an elliptical contact; "
                              "treat it as a line contact")
-        m = brentq(lambda q: _curvature_ratio(q) - ratio, 1e-14, hi, xtol=1e-16, rtol=1e-15)
-        g = (ellipk(m) - ellipe(m)) / m
+        m = brentq(lambda q: _curvature_ratio(q) - ratio, 0.0, hi, xtol=1e-300, rtol=1e-15)
+        g = _elliptic_differences(m)[0]
     s = math.sqrt(1.0 - m)  # b/a
     if load is not None:
         a = (3.0 * load * g / (2.0 * math.pi * E_star * A)) ** (1.0 / 3.0)

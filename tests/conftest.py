@@ -1,0 +1,50 @@
+"""Shared test fixtures, and the guard that turns a rank-local failure into a prompt abort.
+
+Under ``mpirun -n 2 ... --with-mpi``, a failing assertion on one rank while the other waits in a
+collective call would hang the run; the hook below prints the failure and aborts every rank.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENES = ROOT / "scenes"
+VALIDATION = ROOT / "validation"
+
+
+def read_table(name: str) -> list[dict[str, str]]:
+    """A validation table of the paper (validation/*.csv) as a list of rows."""
+    with open(VALIDATION / name, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+@pytest.fixture
+def scene_text():
+    """The text of a scene in scenes/, by name."""
+    return lambda name: (SCENES / f"{name}.toml").read_text()
+
+
+def _mpi_size() -> int:
+    if "mpi4py" not in sys.modules:
+        return 1
+    return sys.modules["mpi4py"].MPI.COMM_WORLD.size
+
+
+def pytest_runtest_logreport(report):
+    if report.failed and _mpi_size() > 1:
+        from mpi4py import MPI
+
+        sys.stderr.write(f"\n[rank {MPI.COMM_WORLD.rank}] {report.nodeid} failed:\n"
+                         f"{report.longreprtext}\n")
+        sys.stderr.flush()
+        MPI.COMM_WORLD.Abort(1)
+
+
+# Debian's h5py picks its MPI build only when asked (docs/install.md, trap 2).
+os.environ.setdefault("H5PY_ALWAYS_USE_MPI", "1")
