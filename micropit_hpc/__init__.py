@@ -1,4 +1,5 @@
-"""micropit_hpc: MPI-parallel prediction of micropitting on rough, lubricated rolling-sliding contacts.
+"""micropit_hpc: MPI-parallel prediction of micropitting on rough, lubricated rolling-sliding
+contacts.
 
 Implements and extends Morales-Espejel, Rycerz & Kadiric, Wear 398-399 (2018) 99-115.
 SI units everywhere inside the package; engineering units only in scene-file keys and reports.

@@ -29,10 +29,12 @@ def involute(angle):
     return np.tan(angle) - angle
 
 
-def operating_pressure_angle(z1: int, z2: int, x1: float, x2: float, pressure_angle: float) -> float:
+def operating_pressure_angle(z1: int, z2: int, x1: float, x2: float,
+                             pressure_angle: float) -> float:
     """Zero-backlash working pressure angle: inv α_w = inv α + 2 tan α (x1 + x2)/(z1 + z2)
     (ISO 21771:2007 eq. 41)."""
-    target = float(involute(pressure_angle)) + 2.0 * math.tan(pressure_angle) * (x1 + x2) / (z1 + z2)
+    target = (float(involute(pressure_angle))
+              + 2.0 * math.tan(pressure_angle) * (x1 + x2) / (z1 + z2))
     if target <= 0.0:
         raise MeshingError("the profile shifts give no positive working pressure angle",
                            ("x1", "x2"))

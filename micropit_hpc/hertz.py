@@ -59,10 +59,11 @@ def _elliptic_differences(m: float) -> tuple[float, float]:
     if m >= _SERIES_M:
         K, E = ellipk(m), ellipe(m)
         return (K - E) / m, (E / (1.0 - m) - K) / m
-    k_minus_e = sum((c - d) * m ** (n - 1) for n, (c, d) in enumerate(zip(_C, _D)) if n)
+    k_minus_e = sum((c - d) * m ** (n - 1)
+                    for n, (c, d) in enumerate(zip(_C, _D, strict=True)) if n)
     e_over = 0.0
     cumulative = 0.0
-    for n, (c, d) in enumerate(zip(_C, _D)):
+    for n, (c, d) in enumerate(zip(_C, _D, strict=True)):
         cumulative += d  # E/(1-m) = π/2 Σ_n m^n Σ_{j≤n} d_j
         if n:
             e_over += (cumulative - c) * m ** (n - 1)
@@ -70,7 +71,7 @@ def _elliptic_differences(m: float) -> tuple[float, float]:
 
 
 def _curvature_ratio(m: float) -> float:
-    """B/A of an ellipse with e² = m (a ≥ b): [E(e)/(1-e²) - K(e)] / [K(e) - E(e)] (Johnson 3.64)."""
+    """B/A of an ellipse with e² = m (a ≥ b): [E/(1-e²) - K] / [K - E] (Johnson eq. 3.64)."""
     k_minus_e, e_over = _elliptic_differences(m)
     return e_over / k_minus_e
 

@@ -106,7 +106,8 @@ def _num(x: float) -> str:
     return f"{x:g}"
 
 
-def check_unknown(table: Mapping[str, Any], allowed: Sequence[str], where: str, source: str) -> None:
+def check_unknown(table: Mapping[str, Any], allowed: Sequence[str], where: str,
+                  source: str) -> None:
     """Refuse keys that are not in ``allowed``, suggesting the closest allowed name."""
     for name in table:
         if name in allowed:
@@ -140,7 +141,8 @@ def read_section(table: Any, section: Section, source: str) -> dict[str, Any]:
         dotted = section.dotted(key.name)
         if key.name not in table:
             if key.default is REQUIRED:
-                raise SceneError(source, f"missing required key '{dotted}' ({key.doc.split('.')[0]}; "
+                meaning = key.doc.split(".")[0]
+                raise SceneError(source, f"missing required key '{dotted}' ({meaning}; "
                                          f"{key.allowed()})")
             out[key.attr] = None if key.default is None else _convert(key, key.default, dotted,
                                                                       source)
