@@ -16,12 +16,12 @@ import sys
 import matplotlib
 
 matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+import matplotlib.pyplot as plt
+import numpy as np
 
-from micropit_hpc.conditions import contact_study, gear_conditions  # noqa: E402
-from micropit_hpc.errors import MicropitError  # noqa: E402
-from micropit_hpc.scene import load_scene  # noqa: E402
+from micropit_hpc.conditions import contact_study, gear_conditions
+from micropit_hpc.errors import MicropitError
+from micropit_hpc.scene import load_scene
 
 
 def plot_gear(study, out: str) -> None:

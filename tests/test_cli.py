@@ -72,3 +72,13 @@ def test_entry_points():
         out = subprocess.run([str(exe), "scene", "scenes/paper_mpr.toml"], capture_output=True,
                              text=True, cwd=ROOT, timeout=60)
         assert out.returncode == 0 and "valid scene 'paper_mpr'" in out.stdout
+
+
+@pytest.mark.parametrize("scene", ["paper_gear_z23", "paper_mpr"])
+def test_contact_plot_is_written(tmp_path, scene):
+    png = tmp_path / f"{scene}.png"
+    out = subprocess.run([sys.executable, str(ROOT / "postprocess" / "plot_contact.py"),
+                          str(SCENES / f"{scene}.toml"), "--out", str(png)],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0, out.stderr
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and png.stat().st_size > 20_000
