@@ -11,7 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import brentq
-from scipy.special import ellipe, ellipk
+from scipy.special import ellipe, ellipkm1
 
 
 def reduced_modulus(E1: float, nu1: float, E2: float, nu2: float) -> float:
@@ -52,13 +52,15 @@ _C = [(math.comb(2 * n, n) / 4.0**n) ** 2 for n in range(8)]  # K = π/2 Σ c_n 
 _D = [c / (1 - 2 * n) for n, c in enumerate(_C)]              # E = π/2 Σ d_n m^n
 
 
-def _elliptic_differences(m: float) -> tuple[float, float]:
-    """(K - E)/m and (E/(1-m) - K)/m for parameter m = e², the two differences in the Hertz
-    ellipse relations. Both cancel as m -> 0, so small m uses their power series
-    (Abramowitz & Stegun 17.3.11-12; truncation below 1e-18)."""
+def _elliptic_differences(s: float) -> tuple[float, float]:
+    """(K - E)/m and (E/(1-m) - K)/m for an ellipse of axis ratio s = b/a, m = e² = 1 - s²: the
+    two differences in the Hertz ellipse relations. Both cancel as m -> 0, so small m uses their
+    power series (Abramowitz & Stegun 17.3.11-12; truncation below 1e-18); long ellipses
+    (m -> 1) take K from ``ellipkm1(s²)``, which keeps its accuracy there."""
+    m = (1.0 - s) * (1.0 + s)
     if m >= _SERIES_M:
-        K, E = ellipk(m), ellipe(m)
-        return (K - E) / m, (E / (1.0 - m) - K) / m
+        K, E = ellipkm1(s * s), ellipe(m)
+        return (K - E) / m, (E / (s * s) - K) / m
     k_minus_e = sum((c - d) * m ** (n - 1)
                     for n, (c, d) in enumerate(zip(_C, _D, strict=True)) if n)
     e_over = 0.0
@@ -70,9 +72,9 @@ def _elliptic_differences(m: float) -> tuple[float, float]:
     return math.pi / 2 * k_minus_e, math.pi / 2 * e_over
 
 
-def _curvature_ratio(m: float) -> float:
-    """B/A of an ellipse with e² = m (a ≥ b): [E/(1-e²) - K] / [K - E] (Johnson eq. 3.64)."""
-    k_minus_e, e_over = _elliptic_differences(m)
+def _curvature_ratio(s: float) -> float:
+    """B/A of an ellipse of axis ratio s = b/a ≤ 1: [E/s² - K] / [K - E] (Johnson eq. 3.64)."""
+    k_minus_e, e_over = _elliptic_differences(s)
     return e_over / k_minus_e
 
 
@@ -93,16 +95,16 @@ def elliptical_contact(Rx: float, Ry: float, E_star: float, *, load: float | Non
     Ax, Ay = 1.0 / (2.0 * Rx), 1.0 / (2.0 * Ry)
     A, B = min(Ax, Ay), max(Ax, Ay)
     ratio = B / A
-    if ratio == 1.0:  # circle: (K - E)/e² -> π/4, √(1-e²) -> 1
-        g, m = math.pi / 4.0, 0.0
-    else:
-        hi = 1.0 - 1e-15
-        if _curvature_ratio(hi) < ratio:
-            raise ValueError(f"curvature ratio {ratio:g} too large for an elliptical contact; "
-                             "treat it as a line contact")
-        m = brentq(lambda q: _curvature_ratio(q) - ratio, 0.0, hi, xtol=1e-300, rtol=1e-15)
-        g = _elliptic_differences(m)[0]
-    s = math.sqrt(1.0 - m)  # b/a
+    if ratio == 1.0:  # circle: (K - E)/e² -> π/4, b/a = 1
+        g, s = math.pi / 4.0, 1.0
+    else:  # B/A falls monotonically from ∞ (s -> 0) to 1 (s = 1); solve for ln s
+        lo = -1.0
+        while _curvature_ratio(math.exp(lo)) < ratio:
+            lo *= 2.0
+        t = brentq(lambda q: _curvature_ratio(math.exp(q)) - ratio, lo, 0.0, xtol=1e-15,
+                   rtol=1e-15)
+        s = math.exp(t)
+        g = _elliptic_differences(s)[0]
     if load is not None:
         a = (3.0 * load * g / (2.0 * math.pi * E_star * A)) ** (1.0 / 3.0)
         b = a * s

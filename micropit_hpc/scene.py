@@ -105,8 +105,9 @@ Lubricant at the contact inlet temperature. Required unless `[film] hc_um` gives
 """, (
     Key("eta0_mPas", "eta0", "float", "Dynamic viscosity η0 at ambient pressure.", "mPa·s",
         1e-3, default=None, lo=0, lo_open=True),
-    Key("alpha_pv_1_per_GPa", "alpha_pv", "float", "Barus pressure-viscosity coefficient α.",
-        "1/GPa", 1e-9, default=None, lo=0),
+    Key("alpha_pv_1_per_GPa", "alpha_pv", "float", "Barus pressure-viscosity coefficient α "
+        "(the EHL film formulas scale with a power of α: zero is not allowed).", "1/GPa", 1e-9,
+        default=None, lo=0, lo_open=True),
     Key("beta_1_per_K", "beta", "float", "Temperature-viscosity coefficient β, for "
         "`thermal = \"wilson_sheu\"`.", "1/K", 1.0, default=None, lo=0, lo_open=True),
     Key("conductivity_W_per_mK", "conductivity", "float", "Thermal conductivity k_f of the oil, "

@@ -87,6 +87,7 @@ def test_nan_inside_a_list_names_the_element(tmp_path):
     ("torque_Nm = 140.0", "torque_Nm = 0.0", "gear.torque_Nm"),
     ("speed_rpm = 957.0", "speed_rpm = -957.0", "gear.speed_rpm"),
     ("eta0_mPas = 90.0", "eta0_mPas = 0.0", "lubricant.eta0_mPas"),
+    ("alpha_pv_1_per_GPa = 21.0", "alpha_pv_1_per_GPa = 0.0", "lubricant.alpha_pv_1_per_GPa"),
     ("E_GPa = 210.0", "E_GPa = -210.0", "body1.E_GPa"),
 ])
 def test_non_positive_sizes(tmp_path, old, new, key):
