@@ -335,8 +335,8 @@ def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
 
     gear = positions = disc = None
     if has_gear:
-        gear = _read_gear(doc["gear"], source)
-        positions = _read_positions(doc, gear, source)
+        gear, mesh = _read_gear(doc["gear"], source)
+        positions = _read_positions(doc, gear, mesh, source)
         line = True
     else:
         if "positions" in doc:
@@ -370,7 +370,7 @@ def _lookup(doc: Mapping[str, Any], dotted: str) -> Any:
     return node
 
 
-def _read_gear(table: Mapping[str, Any], source: str) -> GearSpec:
+def _read_gear(table: Mapping[str, Any], source: str) -> tuple[GearSpec, GearMesh]:
     g = read_section(table, _GEAR, source)
     for part in ("pinion", "wheel"):
         if part not in table:
@@ -399,7 +399,7 @@ def _read_gear(table: Mapping[str, Any], source: str) -> GearSpec:
                            x1=p["profile_shift"], x2=w["profile_shift"], tip_radius1=ra1,
                            tip_radius2=ra2, root_radius1=rf1, root_radius2=rf2,
                            centre_distance=a, facewidth=g["facewidth"])
-        GearMesh.from_geometry(geo)
+        mesh = GearMesh.from_geometry(geo)
     except MeshingError as e:
         keys = []
         for f in e.fields:
@@ -409,15 +409,17 @@ def _read_gear(table: Mapping[str, Any], source: str) -> GearSpec:
                         f"{dotted} (default)")
         raise SceneError(source, f"the gear pair cannot mesh: {e}; check {', '.join(keys)}"
                          ) from None
-    return GearSpec(geometry=geo, torque=g["torque"], speed=g["speed"],
+    spec = GearSpec(geometry=geo, torque=g["torque"], speed=g["speed"],
                     load_sharing=g["load_sharing"], accuracy_grade=g["accuracy_grade"])
+    return spec, mesh
 
 
 _POSITION_KEYS = {"roll_angle": "roll_angle_deg", "radial_position": "radial_pos_mm",
                   "modules_below_tip": "modules_below_tip"}
 
 
-def _read_positions(doc: Mapping[str, Any], gear: GearSpec, source: str) -> PositionSpec:
+def _read_positions(doc: Mapping[str, Any], gear: GearSpec, mesh: GearMesh,
+                    source: str) -> PositionSpec:
     if "positions" not in doc:
         raise SceneError(source, "missing table [positions]: say where along the path of contact "
                                  "to evaluate (roll_angle_deg, radial_pos_mm, modules_below_tip "
@@ -426,14 +428,13 @@ def _read_positions(doc: Mapping[str, Any], gear: GearSpec, source: str) -> Posi
     given = [k for k in ("roll_angle", "radial_position", "modules_below_tip", "count")
              if v[k] is not None]
     if len(given) != 1:
-        names = ", ".join(f"positions.{_POSITIONS.keys[i].name}" for i in range(4))
+        names = ", ".join(f"positions.{k.name}" for k in _POSITIONS.keys)
         raise SceneError(source, f"give exactly one of {names}; found "
                                  f"{len(given) if given else 'none'}")
     kind = given[0]
     if kind == "count":
         return PositionSpec(kind="count", count=v["count"])
     values = v[kind]
-    mesh = GearMesh.from_geometry(gear.geometry)
     key = _POSITIONS.key(_POSITION_KEYS[kind])
     open_ends = gear.load_sharing == "linear"
     lo, hi = mesh.position_range(kind)

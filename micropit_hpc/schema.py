@@ -198,19 +198,15 @@ def _number(key: Key, value: Any, dotted: str, source: str) -> float:
     return v
 
 
+_KIND_WORDS = ((bool, "a boolean"), (str, "a string"), (int, "an integer"), (float, "a number"),
+               (list, "a list"), (Mapping, "a table"))
+
+
 def _kind(value: Any) -> str:
-    if isinstance(value, bool):
-        return "a boolean"
-    if isinstance(value, str):
-        return "a string"
-    if isinstance(value, int):
-        return "an integer"
-    if isinstance(value, float):
-        return "a number"
-    if isinstance(value, list):
-        return "a list"
-    if isinstance(value, Mapping):
-        return "a table"
+    """What a TOML value is, in words (bool before int: a TOML boolean is a Python int)."""
+    for t, word in _KIND_WORDS:
+        if isinstance(value, t):
+            return word
     return type(value).__name__
 
 
