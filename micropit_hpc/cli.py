@@ -29,7 +29,10 @@ def _cmd_contact(args: argparse.Namespace) -> int:
         print("\n".join("# " + line for line in path_summary(study)))
         print(table, end="", flush=True)
         if args.csv:
-            write_text_atomic(args.csv, table)
+            try:
+                write_text_atomic(args.csv, table)
+            except OSError as e:
+                raise MicropitError(f"cannot write --csv {args.csv}: {e.strerror}") from None
             print(f"# wrote {args.csv}", flush=True)
     return 0
 
@@ -61,6 +64,12 @@ def _cmd_scene(args: argparse.Namespace) -> int:
     return 0
 
 
+def _positive_int(text: str) -> int:
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive number of ranks, got {text!r}")
+    return int(text)
+
+
 def _launcher_rank() -> int:
     for var in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
         value = os.environ.get(var, "")
@@ -71,7 +80,9 @@ def _launcher_rank() -> int:
 
 def build_parser() -> argparse.ArgumentParser:
     common = argparse.ArgumentParser(add_help=False)
-    common.add_argument("--debug", action="store_true",
+    # SUPPRESS: a subcommand's parser must not reset a --debug given before the subcommand (the
+    # action object is shared by every parser built from `common`: never set_defaults(debug=))
+    common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                         help="show the Python traceback of errors")
     parser = argparse.ArgumentParser(
         prog="micropit", parents=[common],
@@ -93,7 +104,7 @@ def build_parser() -> argparse.ArgumentParser:
                        help="check MPI, parallel HDF5, PETSc and FFTW (run under mpirun)",
                        description="Check that this environment can run micropit_hpc in "
                                    "parallel; exit 1 naming each problem.")
-    p.add_argument("--expect-ranks", type=int, metavar="N",
+    p.add_argument("--expect-ranks", type=_positive_int, metavar="N",
                    help="fail unless exactly N ranks are running")
     p.set_defaults(func=_cmd_check_env)
 
@@ -112,7 +123,7 @@ def main(argv: list[str] | None = None) -> int:
     try:
         return args.func(args)
     except MicropitError as e:
-        if args.debug:
+        if getattr(args, "debug", False):
             raise
         if isinstance(e, SceneError) and _launcher_rank() > 0:
             return EXIT_USER_ERROR  # every rank read the same file: rank 0 says it once

@@ -13,6 +13,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from micropit_hpc import film as filmlib
+from micropit_hpc.errors import MicropitError
 from micropit_hpc.gear import GearMesh
 from micropit_hpc.hertz import elliptical_contact, line_contact, reduced_modulus
 from micropit_hpc.scene import Scene
@@ -181,12 +182,25 @@ def disc_conditions(scene: Scene) -> tuple[ContactConditions, ...]:
 
 
 def contact_study(scene: Scene) -> ContactStudy:
-    """The contact conditions at every position of a scene."""
+    """The contact conditions at every position of a scene.
+
+    Raises :class:`MicropitError` if a quantity comes out infinite or NaN (inputs that are each
+    in range but together outside what floating point or the formulas can represent).
+    """
     E_prime, E_star = moduli(scene)
-    if scene.gear is not None:
-        mesh = GearMesh.from_geometry(scene.gear.geometry)
-        cond = gear_conditions(scene, mesh, gear_positions(scene, mesh))
-        return ContactStudy(scene=scene, E_prime=E_prime, E_star=E_star, conditions=cond,
-                            mesh=mesh)
-    return ContactStudy(scene=scene, E_prime=E_prime, E_star=E_star,
-                        conditions=disc_conditions(scene))
+    mesh = None
+    with np.errstate(all="ignore"):
+        if scene.gear is not None:
+            mesh = GearMesh.from_geometry(scene.gear.geometry)
+            cond = gear_conditions(scene, mesh, gear_positions(scene, mesh))
+        else:
+            cond = disc_conditions(scene)
+    for c in cond:
+        for name in ("R", "load", "p0", "b", "u1", "u2", "hc", "Lambda"):
+            value = getattr(c, name)
+            if not math.isfinite(value) and not (name == "Lambda" and value == math.inf):
+                raise MicropitError(
+                    f"{scene.source}: position {c.position}: {name} = {value} is not finite; "
+                    "the scene's numbers together are outside what the contact formulas can "
+                    "represent (check loads, sizes and speeds for a unit slip)")
+    return ContactStudy(scene=scene, E_prime=E_prime, E_star=E_star, conditions=cond, mesh=mesh)

@@ -32,6 +32,8 @@ def format_value(value: object) -> str:
         return "true" if value else "false"
     if isinstance(value, list | tuple):
         return "[" + ", ".join(format_value(v) for v in value) + "]"
+    if hasattr(value, "isoformat"):  # TOML dates and times
+        return value.isoformat()
     if isinstance(value, dict):
         return "{" + ", ".join(f"{k} = {format_value(v)}" for k, v in value.items()) + "}"
     return repr(value)

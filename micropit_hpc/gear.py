@@ -48,6 +48,17 @@ def zero_backlash_centre_distance(module: float, pressure_angle: float, z1: int,
     return module * (z1 + z2) * math.cos(pressure_angle) / (2.0 * math.cos(aw))
 
 
+def tooth_thickness(module: float, pressure_angle: float, z: int, x: float, r):
+    """Transverse tooth thickness (arc) at radius r ≥ r_b, vectorised over r:
+    s_r = 2r ψ(r), ψ(r) = s/d + inv α - inv α_r, s = m(π/2 + 2x tan α), d = m z,
+    cos α_r = r_b/r (ISO 21771:2007 eq. 27); ψ is the tooth's half-angle at r."""
+    r = np.asarray(r, dtype=float)
+    rb = 0.5 * module * z * math.cos(pressure_angle)
+    s = module * (math.pi / 2 + 2.0 * x * math.tan(pressure_angle))
+    alpha_r = np.arccos(np.minimum(1.0, rb / r))
+    return 2.0 * r * (s / (module * z) + involute(pressure_angle) - involute(alpha_r))
+
+
 @dataclass(frozen=True)
 class GearGeometry:
     """Geometry of an external spur gear pair, SI units (lengths in m, angles in rad)."""
@@ -101,12 +112,27 @@ class GearMesh:
             raise MeshingError(
                 f"the centre distance {a * 1e3:.4g} mm is not larger than the sum of the base "
                 f"radii {(rb1 + rb2) * 1e3:.4g} mm: the gears cannot mesh", ("centre_distance",))
+        a0 = zero_backlash_centre_distance(geo.module, geo.pressure_angle, geo.z1, geo.z2,
+                                           geo.x1, geo.x2)
+        if a < a0 * (1.0 - 1e-9):
+            raise MeshingError(
+                f"the centre distance {a * 1e3:.6g} mm is smaller than the zero-backlash centre "
+                f"distance {a0 * 1e3:.6g} mm of these profile shifts: the teeth would overlap "
+                "(centre distance too small)", ("centre_distance", "x1", "x2"))
         for i, (ra, rb) in enumerate(((geo.tip_radius1, rb1), (geo.tip_radius2, rb2)), 1):
             if ra <= rb:
                 raise MeshingError(
                     f"the tip diameter {2 * ra * 1e3:.4g} mm of gear {i} is not larger than its "
                     f"base diameter {2 * rb * 1e3:.4g} mm: the tooth has no involute flank",
                     (f"tip_radius{i}",))
+        for i, (z, x, ra) in enumerate(((geo.z1, geo.x1, geo.tip_radius1),
+                                        (geo.z2, geo.x2, geo.tip_radius2)), 1):
+            sa = float(tooth_thickness(geo.module, geo.pressure_angle, z, x, ra))
+            if sa < 0.0:
+                raise MeshingError(
+                    f"the teeth of gear {i} come to a point below their tip (thickness "
+                    f"{sa * 1e3:.4g} mm at the tip diameter): reduce the profile shift or the "
+                    "tip diameter", (f"tip_radius{i}", f"x{i}"))
         for i, j, ra, rf in ((1, 2, geo.tip_radius1, geo.root_radius2),
                              (2, 1, geo.tip_radius2, geo.root_radius1)):
             if ra + rf > a:
@@ -172,9 +198,7 @@ class GearMesh:
         """
         geo = self.geometry
         r = np.hypot(self.rb1, np.asarray(rho1, dtype=float))
-        alpha_r = np.arccos(self.rb1 / r)
-        s = geo.module * (math.pi / 2 + 2.0 * geo.x1 * math.tan(geo.pressure_angle))
-        psi = s / (geo.module * geo.z1) + involute(geo.pressure_angle) - involute(alpha_r)
+        psi = tooth_thickness(geo.module, geo.pressure_angle, geo.z1, geo.x1, r) / (2.0 * r)
         return r * np.cos(psi)
 
     def rho1_from_radial_position(self, y: float) -> float:
@@ -227,7 +251,7 @@ class GearMesh:
 
     def evenly_spaced(self, n: int):
         """n points at the centres of n equal intervals of A-E (never the unloaded end points;
-        for a ratio-1 pair and odd n the middle one is the pitch point)."""
+        for two identical gears and odd n the middle one is the pitch point)."""
         return self.A + (np.arange(n) + 0.5) * (self.E - self.A) / n
 
     # --- contact quantities ---------------------------------------------------------------
@@ -260,7 +284,8 @@ class GearMesh:
         ``iso_unmodified``: ISO/TS 6336-22 Method B for unmodified profiles,
         X = (Q-2)/15 + t/3 on the ramps (t = 0 at A and E, 1 at B and D), 1 over B-D, with Q the
         ISO 1328 accuracy grade. These ramps bound each pair's share (pitch deviations); the two
-        shares sum to 1 only for Q = 7 and exceed it above.
+        shares sum to 1 for Q = 7 and exceed it above. Grades finer than 7 are taken as 7
+        [our choice]: below it the ramps would lose load (shares summing to less than 1).
         ``none``: X = 1 everywhere.
         """
         rho1 = np.asarray(rho1, dtype=float)
@@ -272,5 +297,5 @@ class GearMesh:
         if model == "linear":
             return t
         if model == "iso_unmodified":
-            return np.where(t < 1.0, (accuracy_grade - 2) / 15.0 + t / 3.0, 1.0)
+            return np.where(t < 1.0, (max(accuracy_grade, 7) - 2) / 15.0 + t / 3.0, 1.0)
         raise ValueError(f"unknown load-sharing model {model!r}; one of {LOAD_SHARING}")

@@ -101,6 +101,8 @@ def elliptical_contact(Rx: float, Ry: float, E_star: float, *, load: float | Non
         lo = -1.0
         while _curvature_ratio(math.exp(lo)) < ratio:
             lo *= 2.0
+            if lo < -300.0:
+                raise ValueError(f"curvature ratio {ratio:g}: practically a line contact")
         t = brentq(lambda q: _curvature_ratio(math.exp(q)) - ratio, lo, 0.0, xtol=1e-15,
                    rtol=1e-15)
         s = math.exp(t)

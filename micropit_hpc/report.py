@@ -66,6 +66,10 @@ def path_summary(study: ContactStudy) -> list[str]:
         d = scene.disc
         kind = "line contact" if d.is_line else f"elliptical contact, Ry = {d.Ry * 1e3:.4g} mm"
         out.append(f"disc rig: Rx = {d.Rx * 1e3:.4g} mm, {kind}, u_mean = {d.u_mean:g} m/s")
+        if not d.is_line:
+            c = study.conditions[0]
+            out.append(f"Hertz ellipse: load F = {c.load:.4g} N, semi-axes a_x = "
+                       f"{c.b * 1e6:.4g} µm (rolling), a_y = {c.a * 1e6:.4g} µm (across)")
     return out
 
 

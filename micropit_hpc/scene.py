@@ -39,8 +39,8 @@ RPM = 2.0 * math.pi / 60.0
 TOP_LEVEL = ("study", "gear", "disc", "body1", "body2", "lubricant", "film", "hertz", "positions")
 
 _STUDY = Section("study", "What the study is called.", (
-    Key("name", "name", "str", "Name of the study, used for output folders. Default: the file "
-        "name without .toml.", default=None),
+    Key("name", "name", "str", "Name of the study, shown in reports and results. Default: the "
+        "file name without .toml.", default=None),
     Key("description", "description", "str", "Free text: where the numbers come from.",
         default=""),
 ))
@@ -49,24 +49,25 @@ _GEAR = Section("gear", """
 An external involute spur gear pair (MODEL.md §2.1). Gear 1 is the pinion (body 1) and drives;
 gear 2 is the wheel (body 2). Give either `[gear]` with `[positions]`, or `[disc]`.
 """, (
-    Key("module_mm", "module", "float", "Normal module m.", "mm", MM, lo=0, lo_open=True),
+    Key("module_mm", "module", "float", "Normal module m.", "mm", MM, lo=0.01, hi=1000),
     Key("pressure_angle_deg", "pressure_angle", "float", "Reference pressure angle α.", "deg",
         DEG, lo=0, hi=45, lo_open=True, hi_open=True),
     Key("centre_distance_mm", "centre_distance", "float",
         "Operating centre distance a. Default: the zero-backlash centre distance of the profile "
-        "shifts (ISO 21771).", "mm", MM, default=None, lo=0, lo_open=True),
+        "shifts (ISO 21771).", "mm", MM, default=None, lo=0, hi=1e5, lo_open=True),
     Key("facewidth_mm", "facewidth", "float", "Common facewidth b_w carrying the load.", "mm",
-        MM, lo=0, lo_open=True),
+        MM, lo=0.001, hi=1e5),
     Key("torque_Nm", "torque", "float", "Torque on gear 1 (the driver); the normal load per "
-        "unit facewidth is w = X T1 / (r_b1 b_w).", "N·m", 1.0, lo=0, lo_open=True),
+        "unit facewidth is w = X T1 / (r_b1 b_w).", "N·m", 1.0, lo=0, hi=1e9, lo_open=True),
     Key("speed_rpm", "speed", "float", "Rotational speed of gear 1.", "rpm", RPM, lo=0,
-        lo_open=True),
+        hi=1e6, lo_open=True),
     Key("load_sharing", "load_sharing", "str", "Load-sharing model X along the path: `linear` "
         "(tip relief for smooth meshing: 0→1 over A–B, 1 over B–D, 1→0 over D–E), "
         "`iso_unmodified` (ISO/TS 6336-22 Method B ramps (Q−2)/15 + t/3 for unmodified "
         "profiles), `none` (X = 1).", default="linear", choices=LOAD_SHARING),
     Key("accuracy_grade", "accuracy_grade", "int", "ISO 1328 accuracy grade Q, used only by "
-        "`load_sharing = \"iso_unmodified\"`.", default=7, lo=2, hi=12),
+        "`load_sharing = \"iso_unmodified\"`; grades finer than 7 are taken as 7 (below it the "
+        "ISO ramps would lose load).", default=7, lo=0, hi=12),
 ), children=("pinion", "wheel"))
 
 
@@ -76,10 +77,10 @@ def _wheel_section(path: str, which: str) -> Section:
         Key("profile_shift", "profile_shift", "float", "Profile shift coefficient x.",
             default=0.0, lo=-1.5, hi=1.5),
         Key("tip_diameter_mm", "tip_diameter", "float", "Tip diameter d_a. Default: the "
-            "standard d + 2m(1 + x).", "mm", MM, default=None, lo=0, lo_open=True),
+            "standard d + 2m(1 + x).", "mm", MM, default=None, lo=0, hi=1e6, lo_open=True),
         Key("root_diameter_mm", "root_diameter", "float", "Root diameter d_f, used only to "
             "check tip-root clearance. Default: d − 2m(1.25 − x).", "mm", MM, default=None, lo=0,
-            lo_open=True),
+            hi=1e6, lo_open=True),
     ))
 
 
@@ -90,10 +91,10 @@ _WHEEL = _wheel_section("gear.wheel", "2 (the wheel, body 2, driven)")
 def _body_section(path: str, which: str) -> Section:
     return Section(path, f"Material and roughness of body {which}.", (
         Key("E_GPa", "E", "float", "Young's modulus.", "GPa", GPA, default=210.0, lo=0,
-            lo_open=True),
+            hi=1e4, lo_open=True),
         Key("nu", "nu", "float", "Poisson's ratio.", default=0.3, lo=-1, hi=0.5, lo_open=True,
             hi_open=True),
-        Key("Rq_um", "Rq", "float", "RMS roughness R_q of the surface.", "µm", UM, lo=0),
+        Key("Rq_um", "Rq", "float", "RMS roughness R_q of the surface.", "µm", UM, lo=0, hi=1e4),
     ))
 
 
@@ -104,14 +105,15 @@ _LUBRICANT = Section("lubricant", """
 Lubricant at the contact inlet temperature. Required unless `[film] hc_um` gives the film.
 """, (
     Key("eta0_mPas", "eta0", "float", "Dynamic viscosity η0 at ambient pressure.", "mPa·s",
-        1e-3, default=None, lo=0, lo_open=True),
+        1e-3, default=None, lo=0, hi=1e9, lo_open=True),
     Key("alpha_pv_1_per_GPa", "alpha_pv", "float", "Barus pressure-viscosity coefficient α "
         "(the EHL film formulas scale with a power of α: zero is not allowed).", "1/GPa", 1e-9,
-        default=None, lo=0, lo_open=True),
+        default=None, lo=0, hi=1e3, lo_open=True),
     Key("beta_1_per_K", "beta", "float", "Temperature-viscosity coefficient β, for "
-        "`thermal = \"wilson_sheu\"`.", "1/K", 1.0, default=None, lo=0, lo_open=True),
+        "`thermal = \"wilson_sheu\"`.", "1/K", 1.0, default=None, lo=0, hi=10, lo_open=True),
     Key("conductivity_W_per_mK", "conductivity", "float", "Thermal conductivity k_f of the oil, "
-        "for `thermal = \"wilson_sheu\"`.", "W/(m·K)", 1.0, default=None, lo=0, lo_open=True),
+        "for `thermal = \"wilson_sheu\"`.", "W/(m·K)", 1.0, default=None, lo=0, hi=1e3,
+        lo_open=True),
 ))
 
 _FILM = Section("film", "Central film thickness of the smooth contact (MODEL.md §2.4).", (
@@ -122,7 +124,7 @@ _FILM = Section("film", "Central film thickness of the smooth contact (MODEL.md 
         "reproduces the paper) or `wilson_sheu`.", default="none", choices=THERMAL_MODELS),
     Key("hc_um", "hc", "float", "Central film thickness given directly (e.g. measured); "
         "replaces the formula and the thermal factor.", "µm", UM, default=None, lo=0,
-        lo_open=True),
+        hi=1e4, lo_open=True),
     Key("lambda_roughness", "lambda_roughness", "str", "Roughness in Λ = h_c/R_q: `composite` "
         "√(R_q1² + R_q2²), or one body's R_q (`body2`: the counterface only, as the paper's MPR "
         "tests define Λ).", default="composite", choices=("composite", "body1", "body2")),
@@ -132,7 +134,7 @@ _HERTZ = Section("hertz", "Overrides of the smooth Hertz contact (MODEL.md §2.2
     Key("E_star_GPa", "E_star", "float", "Contact modulus E* used in the Hertz formulas only "
         "(the film keeps the materials' E'). Default: E'/2 from the bodies. The paper's Tables "
         "3 and 7 use 210 (Young's modulus in place of E*); see MODEL.md §2.5.", "GPa", GPA,
-        default=None, lo=0, lo_open=True),
+        default=None, lo=0, hi=1e4, lo_open=True),
 ))
 
 _POSITIONS = Section("positions", """
@@ -157,24 +159,25 @@ given entrainment speed and a list of slide-roll ratios, one contact per ratio. 
 test roller. Without `radius*_y_mm` the contact is a line contact.
 """, (
     Key("p0_GPa", "p0", "float", "Maximum Hertz pressure (give this, `load_N` or "
-        "`load_N_per_m`).", "GPa", GPA, default=None, lo=0, lo_open=True),
+        "`load_N_per_m`).", "GPa", GPA, default=None, lo=0, hi=100, lo_open=True),
     Key("load_N", "load", "float", "Normal load of an elliptical contact.", "N", 1.0,
-        default=None, lo=0, lo_open=True),
+        default=None, lo=0, hi=1e9, lo_open=True),
     Key("load_N_per_m", "load_per_length", "float", "Normal load per unit length of a line "
-        "contact.", "N/m", 1.0, default=None, lo=0, lo_open=True),
+        "contact.", "N/m", 1.0, default=None, lo=0, hi=1e12, lo_open=True),
     Key("u_mean_m_s", "u_mean", "float", "Entrainment speed ū = (u1 + u2)/2.", "m/s", 1.0, lo=0,
-        lo_open=True),
+        hi=1e3, lo_open=True),
     Key("slide_roll", "slide_roll", "floats", "Slide-roll ratios S = (u1 − u2)/ū, one contact "
         "each; |S| = 2 is pure sliding.", default=None, lo=-2, hi=2),
     Key("radius1_x_mm", "radius1_x", "float", "Radius of curvature of body 1 in the rolling "
-        "direction.", "mm", MM, lo=0, lo_open=True),
+        "direction.", "mm", MM, lo=0, hi=1e7, lo_open=True),
     Key("radius2_x_mm", "radius2_x", "float", "Radius of curvature of body 2 in the rolling "
-        "direction.", "mm", MM, lo=0, lo_open=True),
+        "direction.", "mm", MM, lo=0, hi=1e7, lo_open=True),
     Key("radius1_y_mm", "radius1_y", "float", "Radius of curvature of body 1 across the "
         "rolling direction (crown). Default: straight.", "mm", MM, default=None, lo=0,
-        lo_open=True),
+        hi=1e7, lo_open=True),
     Key("radius2_y_mm", "radius2_y", "float", "Radius of curvature of body 2 across the "
-        "rolling direction. Default: straight.", "mm", MM, default=None, lo=0, lo_open=True),
+        "rolling direction. Default: straight.", "mm", MM, default=None, lo=0, hi=1e7,
+        lo_open=True),
 ))
 
 SECTIONS: tuple[Section, ...] = (_STUDY, _GEAR, _PINION, _WHEEL, _POSITIONS, _DISC, _BODY1,
@@ -446,7 +449,7 @@ def _read_positions(doc: Mapping[str, Any], gear: GearSpec, mesh: GearMesh,
             raise SceneError(
                 source, "outside the loaded path of contact A–E" + ends,
                 key=f"positions.{key.name}[{i}]", value=doc["positions"][key.name][i],
-                allowed=f"{lo / key.scale:.6g} {op} value {op} {hi / key.scale:.6g} {key.unit}")
+                allowed=f"{lo / key.scale:.9g} {op} value {op} {hi / key.scale:.9g} {key.unit}")
     return PositionSpec(kind=kind, values=values)
 
 
@@ -458,6 +461,15 @@ def _read_disc(table: Mapping[str, Any], source: str) -> DiscSpec:
     ry1 = v["radius1_y"] if v["radius1_y"] is not None else math.inf
     ry2 = v["radius2_y"] if v["radius2_y"] is not None else math.inf
     line = math.isinf(ry1) and math.isinf(ry2)
+    if not line:
+        rx = 1.0 / (1.0 / v["radius1_x"] + 1.0 / v["radius2_x"])
+        ry = 1.0 / (1.0 / ry1 + 1.0 / ry2)
+        name = "radius1_y_mm" if "radius1_y_mm" in table else "radius2_y_mm"
+        if not 1e-6 <= ry / rx <= 1e6:
+            raise SceneError(source, f"the reduced radii R_y = {ry * 1e3:.4g} mm and R_x = "
+                                     f"{rx * 1e3:.4g} mm differ by more than 1e6: this is a line "
+                                     "contact (omit radius1_y_mm and radius2_y_mm) or a radius "
+                                     "is mistyped", key=f"disc.{name}", value=table[name])
     loads = {"p0_GPa": v["p0"], "load_N": v["load"], "load_N_per_m": v["load_per_length"]}
     given = [k for k, x in loads.items() if x is not None]
     if len(given) != 1:
@@ -483,7 +495,7 @@ def _check_film(v: dict[str, Any], lub: Lubricant, line: bool, source: str) -> F
         model = "DH61" if line else "HD77c"
     geometry = "line" if line else "elliptical"
     if (model == "HD77c") == line:
-        wanted = "DH61 or DH66" if not line else "HD77c"
+        wanted = "DH61 or DH66" if line else "HD77c"
         raise SceneError(source, f"this is {'an' if not line else 'a'} {geometry} contact; its "
                                  f"film model is {wanted}", key="film.model", value=v["model"])
     if v["hc"] is None:

@@ -9,6 +9,7 @@ so the documentation cannot drift from what the code accepts.
 
 from __future__ import annotations
 
+import datetime
 import difflib
 import math
 from collections.abc import Mapping, Sequence
@@ -199,7 +200,8 @@ def _number(key: Key, value: Any, dotted: str, source: str) -> float:
 
 
 _KIND_WORDS = ((bool, "a boolean"), (str, "a string"), (int, "an integer"), (float, "a number"),
-               (list, "a list"), (Mapping, "a table"))
+               (list, "a list"), (Mapping, "a table"),
+               ((datetime.date, datetime.time), "a date or time"))
 
 
 def _kind(value: Any) -> str:

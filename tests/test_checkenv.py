@@ -63,17 +63,23 @@ def test_parallel_environment_under_mpirun(capsys):
 
 
 @pytest.mark.mpi(min_size=2)
-def test_contact_writes_once_under_mpirun(tmp_path_factory, capsys):
+def test_contact_writes_once_under_mpirun(tmp_path_factory, capsys, monkeypatch):
     from mpi4py import MPI
 
+    from micropit_hpc import report
     from micropit_hpc.cli import main
 
+    writes = []
+    real_write = report.write_text_atomic
+    monkeypatch.setattr(report, "write_text_atomic",
+                        lambda path, text: (writes.append(path), real_write(path, text)))
     comm = MPI.COMM_WORLD
     target = comm.bcast(str(tmp_path_factory.mktemp("c") / "c.csv") if comm.rank == 0 else None)
     assert main(["contact", str(SCENES / "paper_mpr.toml"), "--csv", target]) == 0
     out = capsys.readouterr().out
     lines = comm.allgather(out.count("\n"))
     assert lines[0] > 3 and all(n == 0 for n in lines[1:])  # only rank 0 prints
+    assert comm.allgather(len(writes)) == [1] + [0] * (comm.size - 1)  # and writes
     comm.Barrier()
     with open(target) as fh:
         assert fh.read().startswith("position,roll_angle_deg")

@@ -6,6 +6,7 @@ import csv
 import io
 import subprocess
 import sys
+from pathlib import Path
 
 import pytest
 from conftest import ROOT, SCENES
@@ -67,11 +68,10 @@ def test_key_reference_documents_every_key_and_docs_are_current(capsys):
 
 def test_entry_points():
     assert run("--version").stdout.startswith("micropit_hpc ")
-    exe = ROOT / ".venv" / "bin" / "micropit"
-    if exe.exists():  # the console script of the editable install
-        out = subprocess.run([str(exe), "scene", "scenes/paper_mpr.toml"], capture_output=True,
-                             text=True, cwd=ROOT, timeout=60)
-        assert out.returncode == 0 and "valid scene 'paper_mpr'" in out.stdout
+    exe = Path(sys.executable).parent / "micropit"  # the console script of the install
+    out = subprocess.run([str(exe), "scene", "scenes/paper_mpr.toml"], capture_output=True,
+                         text=True, cwd=ROOT, timeout=60)
+    assert out.returncode == 0 and "valid scene 'paper_mpr'" in out.stdout
 
 
 @pytest.mark.parametrize("scene", ["paper_gear_z23", "paper_mpr"])

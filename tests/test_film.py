@@ -18,11 +18,13 @@ def test_dh61_by_hand_at_the_paper_pitch_point():
 
 
 def test_dh66_and_dh61_differ_by_the_known_factor():
-    args = (0.01, 2.0, 1.7e5, 230.77e9, 0.09, 21e-9)
-    U, G, W = 0.09 * 2.0 / (230.77e9 * 0.01), 21e-9 * 230.77e9, 1.7e5 / (230.77e9 * 0.01)
-    ratio = film.dowson_higginson_1966(*args) / film.dowson_higginson_1961(*args)
-    assert float(ratio) == pytest.approx(2.65 / 1.6 * G**-0.06, rel=1e-12)
-    assert U > 0 and W > 0
+    """DH66/DH61 = (2.65/1.6) G^-0.06 U^0: the two differ only in their G exponent (0.54 vs
+    0.6) and constant; U and W enter with the same powers."""
+    G = 21e-9 * 230.77e9
+    for u, w in ((2.0, 1.7e5), (0.5, 3e4)):
+        args = (0.01, u, w, 230.77e9, 0.09, 21e-9)
+        ratio = film.dowson_higginson_1966(*args) / film.dowson_higginson_1961(*args)
+        assert float(ratio) == pytest.approx(2.65 / 1.6 * G**-0.06, rel=1e-12)
 
 
 def test_hamrock_dowson_circular_point_contact_by_hand():
@@ -35,6 +37,16 @@ def test_hamrock_dowson_circular_point_contact_by_hand():
     got = film.hamrock_dowson_1977(0.01, 0.01, 1.0, 100.0, Ep, eta, alpha)
     assert float(got) == pytest.approx(expected, rel=1e-12)
     assert 0.1e-6 < expected < 1e-6  # a plausible film, guards the exponents' signs
+    # an elliptical contact, R_y = 4 R_x: k = 1.0339·4^0.636 = 2.4968 (major axis across
+    # rolling), which thickens the film; the swapped orientation (R_y = R_x/4) thins it
+    k4 = 1.0339 * 4**0.636
+    assert k4 == pytest.approx(2.4968, abs=1e-4)
+    wide = film.hamrock_dowson_1977(0.01, 0.04, 1.0, 100.0, Ep, eta, alpha)
+    assert float(wide) == pytest.approx(
+        expected * (1 - 0.61 * math.exp(-0.73 * k4)) / (1 - 0.61 * math.exp(-0.73 * k)),
+        rel=1e-12)
+    narrow = film.hamrock_dowson_1977(0.01, 0.0025, 1.0, 100.0, Ep, eta, alpha)
+    assert float(narrow) < float(got) < float(wide)
 
 
 def test_thermal_factor_limits_and_a_hand_value():

@@ -144,12 +144,15 @@ def test_zero_backlash_centre_distance_closes_the_tooth_gap():
     assert zero_backlash_centre_distance(m, alpha, 23, 23, 0, 0) == pytest.approx(23 * m)
 
 
-def test_radial_position_on_the_reference_circle():
-    """At the reference circle the tooth's half-angle is π/(2z) (x = 0): y = (d/2) cos(π/(2z))."""
-    mesh = _mesh(z1=23, z2=30, alpha=25.0, a=None)
+@pytest.mark.parametrize("x1", [0.0, 0.4])
+def test_radial_position_on_the_reference_circle(x1):
+    """On the reference circle the tooth thickness is s = m(π/2 + 2x tan α) (ISO 21771), so its
+    half-angle is s/d: y = (d/2) cos(s/d)."""
+    mesh = _mesh(z1=23, z2=30, alpha=25.0, x1=x1, x2=-x1)
     geo = mesh.geometry
     rho_ref = geo.base_radius1 * math.tan(geo.pressure_angle)
-    expected = geo.module * geo.z1 / 2 * math.cos(math.pi / (2 * geo.z1))
+    s = geo.module * (math.pi / 2 + 2 * x1 * math.tan(geo.pressure_angle))
+    expected = geo.module * geo.z1 / 2 * math.cos(s / (geo.module * geo.z1))
     assert float(mesh.radial_position(rho_ref)) == pytest.approx(expected, rel=1e-13)
     assert mesh.rho1_from_radial_position(expected) == pytest.approx(rho_ref, rel=1e-10)
 
@@ -164,6 +167,14 @@ def test_load_shares_of_the_two_pairs_sum_to_the_total_in_double_pair_zones(mode
     single = np.linspace(mesh.B, mesh.D, 11)
     np.testing.assert_array_equal(mesh.load_share(single, model, grade), 1.0)
     assert mesh.single_pair(single).all() and not mesh.single_pair(rho).any()
+
+
+@pytest.mark.parametrize("grade", [0, 3, 6])
+def test_iso_grades_finer_than_7_are_taken_as_7(grade):
+    mesh = _mesh()
+    rho = np.linspace(mesh.A, mesh.B, 9)[1:-1]
+    np.testing.assert_array_equal(mesh.load_share(rho, "iso_unmodified", grade),
+                                  mesh.load_share(rho, "iso_unmodified", 7))
 
 
 def test_iso_ramps_bound_each_pair_above_grade_7():
@@ -182,5 +193,7 @@ def test_iso_ramps_bound_each_pair_above_grade_7():
 def test_evenly_spaced_positions_are_symmetric_about_the_pitch_point():
     mesh = _mesh()
     rho = mesh.evenly_spaced(11)
+    np.testing.assert_allclose(rho - mesh.C, -(rho - mesh.C)[::-1], atol=1e-15)
+    np.testing.assert_allclose(np.diff(rho), (mesh.E - mesh.A) / 11, rtol=1e-12)
     assert rho[5] == pytest.approx(mesh.C, rel=1e-12)
-    assert rho[0] > mesh.A and rho[-1] < mesh.E
+    assert rho[0] - mesh.A == pytest.approx((mesh.E - mesh.A) / 22)

@@ -81,18 +81,30 @@ def test_nan_inside_a_list_names_the_element(tmp_path):
     assert "positions.roll_angle_deg[1]" in msg and "finite" in msg
 
 
-@pytest.mark.parametrize("old,new,key", [
-    ("module_mm = 3.95", "module_mm = -3.95", "gear.module_mm"),
-    ("facewidth_mm = 19.5", "facewidth_mm = 0", "gear.facewidth_mm"),
-    ("torque_Nm = 140.0", "torque_Nm = 0.0", "gear.torque_Nm"),
-    ("speed_rpm = 957.0", "speed_rpm = -957.0", "gear.speed_rpm"),
-    ("eta0_mPas = 90.0", "eta0_mPas = 0.0", "lubricant.eta0_mPas"),
-    ("alpha_pv_1_per_GPa = 21.0", "alpha_pv_1_per_GPa = 0.0", "lubricant.alpha_pv_1_per_GPa"),
-    ("E_GPa = 210.0", "E_GPa = -210.0", "body1.E_GPa"),
+@pytest.mark.parametrize("old,new,key,allowed", [
+    ("module_mm = 3.95", "module_mm = -3.95", "gear.module_mm", "in [0.01, 1000] (mm)"),
+    ("facewidth_mm = 19.5", "facewidth_mm = 0", "gear.facewidth_mm", "in [0.001, 100000] (mm)"),
+    ("torque_Nm = 140.0", "torque_Nm = 0.0", "gear.torque_Nm", "in (0, 1e+09] (N·m)"),
+    ("speed_rpm = 957.0", "speed_rpm = -957.0", "gear.speed_rpm", "in (0, 1e+06] (rpm)"),
+    ("eta0_mPas = 90.0", "eta0_mPas = 0.0", "lubricant.eta0_mPas", "in (0, 1e+09] (mPa·s)"),
+    ("alpha_pv_1_per_GPa = 21.0", "alpha_pv_1_per_GPa = 0.0", "lubricant.alpha_pv_1_per_GPa",
+     "in (0, 1000] (1/GPa)"),
+    ("E_GPa = 210.0", "E_GPa = -210.0", "body1.E_GPa", "in (0, 10000] (GPa)"),
 ])
-def test_non_positive_sizes(tmp_path, old, new, key):
+def test_non_positive_sizes(tmp_path, old, new, key, allowed):
     msg = error_of(broken(tmp_path, old, new))
-    assert key in msg and "out of range" in msg and "> 0" in msg
+    assert key in msg and "out of range" in msg and f"(allowed: a number {allowed})" in msg
+
+
+@pytest.mark.parametrize("old,new,key", [
+    ("module_mm = 3.95", "module_mm = 1e-300", "gear.module_mm"),
+    ("torque_Nm = 140.0", "torque_Nm = 1e308", "gear.torque_Nm"),
+    ("speed_rpm = 957.0", "speed_rpm = 1e300", "gear.speed_rpm"),
+    ("facewidth_mm = 19.5", "facewidth_mm = 1e-300", "gear.facewidth_mm"),
+])
+def test_absurd_magnitudes_are_refused_by_name(tmp_path, old, new, key):
+    msg = error_of(broken(tmp_path, old, new))
+    assert key in msg and "out of range" in msg
 
 
 @pytest.mark.parametrize("nu", ["0.5", "0.6", "-1.0", "-1.5"])
@@ -128,27 +140,79 @@ def test_tip_beyond_the_base_circle_of_the_mate(tmp_path):
     assert "gear.wheel.tip_diameter_mm = 62.0" in msg
 
 
+def test_tip_of_the_pinion_beyond_the_base_circle_of_the_wheel(tmp_path):
+    """The mirror case, 60 : 10: the pinion's tip reaches past the wheel's base circle."""
+    text = (SCENES / "paper_gear_z23.toml").read_text()
+    text = (text.replace("module_mm = 3.95", "module_mm = 1.0")
+                .replace("pressure_angle_deg = 25.0", "pressure_angle_deg = 20.0")
+                .replace("centre_distance_mm = 91.502", "centre_distance_mm = 35.0")
+                .replace("tip_diameter_mm = 98.75", "tip_diameter_mm = 62.0", 1)
+                .replace("teeth = 23", "teeth = 60", 1)
+                .replace("teeth = 23", "teeth = 10", 1)
+                .replace("tip_diameter_mm = 98.75", "tip_diameter_mm = 12.0", 1)
+                .replace("roll_angle_deg = [18.25, 21.10, 22.38, 24.92, 27.14, 27.77, 28.41, "
+                         "30.63, 33.17, 34.44, 37.30]", "n = 3"))
+    path = tmp_path / "interference.toml"
+    path.write_text(text)
+    msg = error_of(path)
+    assert "tip of gear 1 reaches" in msg and "beyond the base circle of gear 2" in msg
+    assert "gear.pinion.tip_diameter_mm = 62.0" in msg
+
+
+def test_centre_distance_below_zero_backlash_overlaps_the_teeth(tmp_path):
+    """Shifted gears (x = 0.5 each) need a ≥ 94.49 mm; 91.502 mm would overlap the teeth."""
+    path = broken(tmp_path, "profile_shift = 0.0", "profile_shift = 0.5")
+    path.write_text(path.read_text().replace("profile_shift = 0.0", "profile_shift = 0.5"))
+    msg = error_of(path)
+    assert "smaller than the zero-backlash centre distance 94.49" in msg
+    assert "gear.centre_distance_mm = 91.502" in msg and "gear.pinion.profile_shift = 0.5" in msg
+
+
+def test_pointed_teeth(tmp_path):
+    """z = 8 with x = 1.5 at 20° and the standard tip: the tooth is pointed below its tip."""
+    text = (SCENES / "gear_z23.toml").read_text()
+    text = (text.replace("pressure_angle_deg = 25.0", "pressure_angle_deg = 20.0")
+                .replace("centre_distance_mm = 91.502\n", "")
+                .replace("teeth = 23\ntip_diameter_mm = 98.75", "teeth = 8\nprofile_shift = 1.5",
+                         1)
+                .replace("tip_diameter_mm = 98.75\n", ""))
+    path = tmp_path / "pointed.toml"
+    path.write_text(text)
+    msg = error_of(path)
+    assert "teeth of gear 1 come to a point" in msg and "gear.pinion.profile_shift = 1.5" in msg
+
+
 def test_tip_inside_own_base_circle(tmp_path):
     msg = error_of(broken(tmp_path, "tip_diameter_mm = 98.75", "tip_diameter_mm = 80.0"))
     assert "no involute flank" in msg and "gear.pinion.tip_diameter_mm = 80.0" in msg
 
 
 @pytest.mark.parametrize("a,expect", [("80.0", "sum of the base radii"),
-                                      ("86.0", "hits the root")])
+                                      ("86.0", "zero-backlash centre distance 90.85")])
 def test_centre_distance_too_small(tmp_path, a, expect):
     msg = error_of(broken(tmp_path, "centre_distance_mm = 91.502", f"centre_distance_mm = {a}"))
     assert expect in msg and f"gear.centre_distance_mm = {a}" in msg
 
 
+def test_tip_hits_the_root_of_the_mate(tmp_path):
+    text = (SCENES / "paper_gear_z23.toml").read_text()
+    path = tmp_path / "clash.toml"
+    path.write_text(text.replace("[gear.wheel]\n", "[gear.wheel]\nroot_diameter_mm = 86.0\n"))
+    msg = error_of(path)
+    assert "the tip of gear 1 hits the root of gear 2" in msg
+    assert "gear.wheel.root_diameter_mm = 86.0" in msg
+
+
 @pytest.mark.parametrize("old,new,key,allowed", [
-    ("18.25,", "40.0,", "positions.roll_angle_deg[0] = 40.0", "17.6124 < value < 37.9356 deg"),
+    ("18.25,", "40.0,", "positions.roll_angle_deg[0] = 40.0",
+     "17.6123541 < value < 37.9355887 deg"),
     ("18.25,", "17.6123541,", "positions.roll_angle_deg[0]", "carry no load"),
     ("roll_angle_deg = [18.25, 21.10, 22.38, 24.92, 27.14, 27.77, 28.41, 30.63, 33.17, 34.44, "
      "37.30]", "radial_pos_mm = [43.0, 50.0]", "positions.radial_pos_mm[1] = 50.0",
-     "42.8993 < value < 49.3641 mm"),
+     "42.8993195 < value < 49.3641081 mm"),
     ("roll_angle_deg = [18.25, 21.10, 22.38, 24.92, 27.14, 27.77, 28.41, 30.63, 33.17, 34.44, "
      "37.30]", "modules_below_tip = [1.8]", "positions.modules_below_tip[0] = 1.8",
-     "0.00275745 < value < 1.63941 modules"),
+     "0.002757449 < value < 1.63941279 modules"),
 ])
 def test_position_outside_the_path_of_contact(tmp_path, old, new, key, allowed):
     msg = error_of(broken(tmp_path, old, new))
@@ -171,7 +235,26 @@ def test_missing_and_conflicting_keys(tmp_path):
     assert "missing key 'lubricant.eta0_mPas'" in error_of(
         broken(tmp_path, "eta0_mPas = 90.0", ""))
     msg = error_of(broken(tmp_path, 'model = "DH61"', 'model = "HD77c"'))
-    assert 'film.model = "HD77c"' in msg and "line contact" in msg
+    assert 'film.model = "HD77c"' in msg and "a line contact; its film model is DH61 or DH66" in msg
+    crowned = broken(tmp_path, "radius2_x_mm = 27.075",
+                     "radius2_x_mm = 27.075\nradius1_y_mm = 20.0", scene="paper_mpr")
+    crowned.write_text(crowned.read_text().replace('lambda_roughness = "body2"',
+                                                   'lambda_roughness = "body2"\nmodel = "DH61"'))
+    msg = error_of(crowned)
+    assert 'film.model = "DH61"' in msg and "an elliptical contact; its film model is HD77c" in msg
+
+
+def test_disc_crown_that_makes_a_line_contact(tmp_path):
+    for radius in ("1e300", "1e9"):
+        msg = error_of(broken(tmp_path, "radius2_x_mm = 27.075",
+                              f"radius2_x_mm = 27.075\nradius2_y_mm = {radius}",
+                              scene="paper_mpr"))
+        assert "disc.radius2_y_mm" in msg and ("out of range" in msg or "line contact" in msg)
+
+
+def test_toml_dates_are_named_as_dates(tmp_path):
+    msg = error_of(broken(tmp_path, "module_mm = 3.95", "module_mm = 1979-05-27"))
+    assert "gear.module_mm = 1979-05-27: expected a number, got a date or time" in msg
 
 
 def test_disc_scene_load_must_fit_the_geometry(tmp_path):
@@ -202,6 +285,17 @@ def test_cli_prints_one_line_and_exits_non_zero_without_traceback(tmp_path):
     assert out.stderr.startswith(f"micropit: error: {path}: body1.nu = 0.7: out of range")
 
 
-def test_cli_debug_shows_the_traceback(tmp_path):
-    out = run_cli("contact", str(broken(tmp_path, "nu = 0.3", "nu = 0.7")), "--debug")
+@pytest.mark.parametrize("where", ["after", "before"])
+def test_cli_debug_shows_the_traceback(tmp_path, where):
+    path = str(broken(tmp_path, "nu = 0.3", "nu = 0.7"))
+    args = ("contact", path, "--debug") if where == "after" else ("--debug", "contact", path)
+    out = run_cli(*args)
     assert out.returncode != 0 and "Traceback" in out.stderr and "SceneError" in out.stderr
+
+
+def test_cli_unwritable_csv_is_a_plain_error(tmp_path):
+    out = run_cli("contact", str(SCENES / "paper_mpr.toml"), "--csv", str(tmp_path))
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert out.stderr.startswith(f"micropit: error: cannot write --csv {tmp_path}: ")
+    out = run_cli("check-env", "--expect-ranks", "0")
+    assert out.returncode == 2 and "expected a positive number of ranks" in out.stderr

@@ -5,8 +5,7 @@ from __future__ import annotations
 import os
 
 # Environment variables by which launchers announce the number of ranks they started.
-LAUNCHER_SIZE_VARS = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS",
-                      "SLURM_STEP_NUM_TASKS")
+LAUNCHER_SIZE_VARS = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "SLURM_STEP_NUM_TASKS")
 
 
 def launcher_size() -> int | None:
