@@ -121,40 +121,33 @@ def test_contact_ratio_below_one(tmp_path):
     assert "gear.pinion.tip_diameter_mm = 94.0" in msg and "gear.wheel.tip_diameter_mm" in msg
 
 
-def test_tip_beyond_the_base_circle_of_the_mate(tmp_path):
-    """z = 10 : 60 at 20°: the wheel's tip reaches past the pinion's base circle."""
+def small_pair(tmp_path, z1: int, tip1_mm: float, z2: int, tip2_mm: float):
+    """A module-1, 20° pair at a = 35 mm with the given teeth and tip diameters."""
     text = (SCENES / "paper_gear_z23.toml").read_text()
     text = (text.replace("module_mm = 3.95", "module_mm = 1.0")
                 .replace("pressure_angle_deg = 25.0", "pressure_angle_deg = 20.0")
                 .replace("centre_distance_mm = 91.502", "centre_distance_mm = 35.0")
-                .replace("tip_diameter_mm = 98.75", "tip_diameter_mm = 12.0", 1)
-                .replace("teeth = 23", "teeth = 10", 1)
-                .replace("teeth = 23", "teeth = 60", 1)
-                .replace("tip_diameter_mm = 98.75", "tip_diameter_mm = 62.0", 1)
+                .replace("teeth = 23", f"teeth = {z1}", 1)
+                .replace("tip_diameter_mm = 98.75", f"tip_diameter_mm = {tip1_mm}", 1)
+                .replace("teeth = 23", f"teeth = {z2}", 1)
+                .replace("tip_diameter_mm = 98.75", f"tip_diameter_mm = {tip2_mm}", 1)
                 .replace("roll_angle_deg = [18.25, 21.10, 22.38, 24.92, 27.14, 27.77, 28.41, "
                          "30.63, 33.17, 34.44, 37.30]", "n = 3"))
-    path = tmp_path / "interference.toml"
+    path = tmp_path / "pair.toml"
     path.write_text(text)
-    msg = error_of(path)
+    return path
+
+
+def test_tip_beyond_the_base_circle_of_the_mate(tmp_path):
+    """z = 10 : 60 at 20°: the wheel's tip reaches past the pinion's base circle."""
+    msg = error_of(small_pair(tmp_path, 10, 12.0, 60, 62.0))
     assert "beyond the base circle of gear 1" in msg and "interference" in msg
     assert "gear.wheel.tip_diameter_mm = 62.0" in msg
 
 
 def test_tip_of_the_pinion_beyond_the_base_circle_of_the_wheel(tmp_path):
     """The mirror case, 60 : 10: the pinion's tip reaches past the wheel's base circle."""
-    text = (SCENES / "paper_gear_z23.toml").read_text()
-    text = (text.replace("module_mm = 3.95", "module_mm = 1.0")
-                .replace("pressure_angle_deg = 25.0", "pressure_angle_deg = 20.0")
-                .replace("centre_distance_mm = 91.502", "centre_distance_mm = 35.0")
-                .replace("tip_diameter_mm = 98.75", "tip_diameter_mm = 62.0", 1)
-                .replace("teeth = 23", "teeth = 60", 1)
-                .replace("teeth = 23", "teeth = 10", 1)
-                .replace("tip_diameter_mm = 98.75", "tip_diameter_mm = 12.0", 1)
-                .replace("roll_angle_deg = [18.25, 21.10, 22.38, 24.92, 27.14, 27.77, 28.41, "
-                         "30.63, 33.17, 34.44, 37.30]", "n = 3"))
-    path = tmp_path / "interference.toml"
-    path.write_text(text)
-    msg = error_of(path)
+    msg = error_of(small_pair(tmp_path, 60, 62.0, 10, 12.0))
     assert "tip of gear 1 reaches" in msg and "beyond the base circle of gear 2" in msg
     assert "gear.pinion.tip_diameter_mm = 62.0" in msg
 
