@@ -7,11 +7,11 @@ Errors the user can fix (bad scene files, a broken environment) are printed as o
 from __future__ import annotations
 
 import argparse
-import os
 import sys
 
 from micropit_hpc import __version__
 from micropit_hpc.errors import MicropitError, SceneError
+from micropit_hpc.parallel import launcher_rank
 
 EXIT_USER_ERROR = 2
 
@@ -70,14 +70,6 @@ def _positive_int(text: str) -> int:
     return int(text)
 
 
-def _launcher_rank() -> int:
-    for var in ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK"):
-        value = os.environ.get(var, "")
-        if value.isdigit():
-            return int(value)
-    return 0
-
-
 def build_parser() -> argparse.ArgumentParser:
     common = argparse.ArgumentParser(add_help=False)
     # SUPPRESS: a subcommand's parser must not reset a --debug given before the subcommand (the
@@ -125,7 +117,7 @@ def main(argv: list[str] | None = None) -> int:
     except MicropitError as e:
         if getattr(args, "debug", False):
             raise
-        if isinstance(e, SceneError) and _launcher_rank() > 0:
+        if isinstance(e, SceneError) and launcher_rank() > 0:
             return EXIT_USER_ERROR  # every rank read the same file: rank 0 says it once
         print(f"micropit: error: {e}", file=sys.stderr, flush=True)
         return EXIT_USER_ERROR

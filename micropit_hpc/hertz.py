@@ -42,10 +42,6 @@ class EllipticalHertz:
     p0: float
     load: float
 
-    @property
-    def mean_pressure(self) -> float:
-        return 2.0 * self.p0 / 3.0
-
 
 _SERIES_M = 1e-3
 _C = [(math.comb(2 * n, n) / 4.0**n) ** 2 for n in range(8)]  # K = π/2 Σ c_n m^n

@@ -417,10 +417,6 @@ def _read_gear(table: Mapping[str, Any], source: str) -> tuple[GearSpec, GearMes
     return spec, mesh
 
 
-_POSITION_KEYS = {"roll_angle": "roll_angle_deg", "radial_position": "radial_pos_mm",
-                  "modules_below_tip": "modules_below_tip"}
-
-
 def _read_positions(doc: Mapping[str, Any], gear: GearSpec, mesh: GearMesh,
                     source: str) -> PositionSpec:
     if "positions" not in doc:
@@ -428,17 +424,16 @@ def _read_positions(doc: Mapping[str, Any], gear: GearSpec, mesh: GearMesh,
                                  "to evaluate (roll_angle_deg, radial_pos_mm, modules_below_tip "
                                  "or n)")
     v = read_section(doc["positions"], _POSITIONS, source)
-    given = [k for k in ("roll_angle", "radial_position", "modules_below_tip", "count")
-             if v[k] is not None]
+    given = [k for k in _POSITIONS.keys if v[k.attr] is not None]
     if len(given) != 1:
         names = ", ".join(f"positions.{k.name}" for k in _POSITIONS.keys)
         raise SceneError(source, f"give exactly one of {names}; found "
                                  f"{len(given) if given else 'none'}")
-    kind = given[0]
+    key = given[0]
+    kind = key.attr
     if kind == "count":
         return PositionSpec(kind="count", count=v["count"])
     values = v[kind]
-    key = _POSITIONS.key(_POSITION_KEYS[kind])
     open_ends = gear.load_sharing == "linear"
     lo, hi = mesh.position_range(kind)
     for i, value in enumerate(values):

@@ -93,12 +93,6 @@ class Section:
     keys: tuple[Key, ...]
     children: tuple[str, ...] = ()
 
-    def key(self, name: str) -> Key:
-        for k in self.keys:
-            if k.name == name:
-                return k
-        raise KeyError(name)
-
     def dotted(self, name: str) -> str:
         return f"{self.path}.{name}" if self.path else name
 

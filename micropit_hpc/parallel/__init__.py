@@ -8,13 +8,26 @@ import os
 LAUNCHER_SIZE_VARS = ("OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "PMIX_SIZE", "SLURM_STEP_NUM_TASKS")
 
 
-def launcher_size() -> int | None:
-    """The number of ranks the launcher says it started, or None outside a launcher."""
-    for var in LAUNCHER_SIZE_VARS:
-        value = os.environ.get(var)
-        if value and value.isdigit():
+LAUNCHER_RANK_VARS = ("OMPI_COMM_WORLD_RANK", "PMI_RANK", "PMIX_RANK")
+
+
+def _from_environment(names: tuple[str, ...]) -> int | None:
+    for var in names:
+        value = os.environ.get(var, "")
+        if value.isdigit():
             return int(value)
     return None
+
+
+def launcher_size() -> int | None:
+    """The number of ranks the launcher says it started, or None outside a launcher."""
+    return _from_environment(LAUNCHER_SIZE_VARS)
+
+
+def launcher_rank() -> int:
+    """This process's rank as the launcher announced it (0 outside a launcher), without
+    initialising MPI."""
+    return _from_environment(LAUNCHER_RANK_VARS) or 0
 
 
 class SerialComm:
@@ -27,9 +40,6 @@ class SerialComm:
         return obj
 
     def allgather(self, obj):
-        return [obj]
-
-    def gather(self, obj, root=0):
         return [obj]
 
     def Barrier(self):
