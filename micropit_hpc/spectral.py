@@ -1,0 +1,208 @@
+"""Periodic grids and pre-planned real 2-D FFTs: the spectral machinery every stage shares.
+
+Layout: a field on the window is a float64 array of shape ``(nx, ny)``; axis 0 is x (rolling,
+the direction a slab decomposition splits), axis 1 is y (across rolling). Its real transform
+has shape ``(nx, ny//2 + 1)`` (numpy's ``rfft2`` convention: forward unnormalised, basis
+e^{+i(k_x x + k_y y)}, inverse divides by nx·ny). Wavenumbers are angular [rad/m].
+
+Transforms are planned once per shape (pyFFTW with ``FFTW_MEASURE``, one thread per rank) and
+cached; without pyFFTW the same API falls back to ``numpy.fft`` (about 10x slower, HPC.md §2).
+Grid sizes that factor into 2, 3 and 5 only (5-smooth) are fastest; any size works.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+try:  # pragma: no cover - which branch runs depends on the installation
+    import pyfftw
+    import pyfftw.builders
+except ImportError:  # pragma: no cover
+    pyfftw = None
+
+__all__ = ["Grid", "RealFFT2", "fourier_shift", "have_pyfftw", "is_5smooth", "next_5smooth",
+           "rfft_plan"]
+
+
+def have_pyfftw() -> bool:
+    """True when pyFFTW is importable (the fast path)."""
+    return pyfftw is not None
+
+
+def is_5smooth(n: int) -> bool:
+    """True if n > 0 has no prime factor above 5 (FFT-friendly)."""
+    if n < 1:
+        return False
+    for p in (2, 3, 5):
+        while n % p == 0:
+            n //= p
+    return n == 1
+
+
+def next_5smooth(n: int) -> int:
+    """The smallest 5-smooth integer ≥ n."""
+    m = max(int(n), 1)
+    while not is_5smooth(m):
+        m += 1
+    return m
+
+
+@dataclass(frozen=True)
+class Grid:
+    """A uniform periodic grid of ``nx × ny`` points over a window ``lx × ly`` [m].
+
+    Points sit at x_i = (i − nx/2)·dx, so the window is centred on x = 0 (likewise y).
+    """
+
+    nx: int
+    ny: int
+    lx: float
+    ly: float
+
+    def __post_init__(self):
+        if self.nx < 2 or self.ny < 1:
+            raise ValueError(f"grid {self.nx} x {self.ny}: need nx >= 2 and ny >= 1 points")
+        if not (math.isfinite(self.lx) and math.isfinite(self.ly)
+                and self.lx > 0 and self.ly > 0):
+            raise ValueError(f"grid lengths {self.lx} x {self.ly} m must be positive and finite")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return (self.nx, self.ny)
+
+    @property
+    def spectral_shape(self) -> tuple[int, int]:
+        return (self.nx, self.ny // 2 + 1)
+
+    @property
+    def dx(self) -> float:
+        return self.lx / self.nx
+
+    @property
+    def dy(self) -> float:
+        return self.ly / self.ny
+
+    @property
+    def x(self) -> np.ndarray:
+        """x coordinates of the grid rows [m], shape (nx,)."""
+        return (np.arange(self.nx) - self.nx // 2) * self.dx
+
+    @property
+    def y(self) -> np.ndarray:
+        """y coordinates of the grid columns [m], shape (ny,)."""
+        return (np.arange(self.ny) - self.ny // 2) * self.dy
+
+    @cached_property
+    def kx(self) -> np.ndarray:
+        """Angular wavenumbers along x, shape (nx, 1) [rad/m]."""
+        return (2 * np.pi * np.fft.fftfreq(self.nx, self.dx))[:, None]
+
+    @cached_property
+    def ky(self) -> np.ndarray:
+        """Angular wavenumbers along y (non-negative half), shape (1, ny//2+1) [rad/m]."""
+        return (2 * np.pi * np.fft.rfftfreq(self.ny, self.dy))[None, :]
+
+    @cached_property
+    def kappa(self) -> np.ndarray:
+        """|k| = √(k_x² + k_y²), shape (nx, ny//2+1); 0 at the mean mode."""
+        return np.sqrt(self.kx**2 + self.ky**2)
+
+    @cached_property
+    def rfft_weight(self) -> np.ndarray:
+        """Multiplicity of each half-spectrum column in the full spectrum (1 or 2), shape
+        (1, ny//2+1): sums over the half spectrum weighted by this equal full-spectrum sums."""
+        w = np.full(self.ny // 2 + 1, 2.0)
+        w[0] = 1.0
+        if self.ny % 2 == 0:
+            w[-1] = 1.0
+        return w[None, :]
+
+
+class RealFFT2:
+    """Pre-planned real 2-D FFT pair over the last two axes of arrays of one shape.
+
+    ``batch`` leading transforms are done in one call (e.g. 6 stress components × N_z layers).
+    ``forward`` and ``inverse`` return new arrays unless ``out`` is given; the inverse is
+    normalised (numpy convention).
+    """
+
+    def __init__(self, shape: tuple[int, int], batch: int | None = None, threads: int = 1):
+        self.shape = (int(shape[0]), int(shape[1]))
+        self.batch = batch
+        lead = () if batch is None else (int(batch),)
+        self.real_shape = (*lead, *self.shape)
+        self.spectral_shape = (*lead, self.shape[0], self.shape[1] // 2 + 1)
+        if pyfftw is not None:
+            a = pyfftw.empty_aligned(self.real_shape, dtype="float64")
+            c = pyfftw.empty_aligned(self.spectral_shape, dtype="complex128")
+            flags = ("FFTW_MEASURE", "FFTW_DESTROY_INPUT")
+            self._fwd = pyfftw.FFTW(a, c, axes=(-2, -1), direction="FFTW_FORWARD",
+                                    flags=flags, threads=threads)
+            c2 = pyfftw.empty_aligned(self.spectral_shape, dtype="complex128")
+            a2 = pyfftw.empty_aligned(self.real_shape, dtype="float64")
+            self._inv = pyfftw.FFTW(c2, a2, axes=(-2, -1), direction="FFTW_BACKWARD",
+                                    flags=flags, threads=threads)
+        else:  # pragma: no cover
+            self._fwd = self._inv = None
+
+    def forward(self, a: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """rfft2 of ``a`` (shape ``real_shape``)."""
+        if self._fwd is None:  # pragma: no cover
+            r = np.fft.rfft2(a)
+        else:
+            self._fwd.input_array[...] = a
+            self._fwd.execute()
+            r = self._fwd.output_array
+        if out is None:
+            return r.copy()
+        out[...] = r
+        return out
+
+    def inverse(self, c: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """irfft2 of ``c`` (shape ``spectral_shape``), normalised."""
+        if self._inv is None:  # pragma: no cover
+            r = np.fft.irfft2(c, s=self.shape)
+            if out is None:
+                return r
+            out[...] = r
+            return out
+        self._inv.input_array[...] = c
+        self._inv.execute()
+        r = self._inv.output_array
+        if out is None:
+            out = np.empty(self.real_shape)
+        np.multiply(r, 1.0 / (self.shape[0] * self.shape[1]), out=out)
+        return out
+
+
+_PLANS: dict[tuple, RealFFT2] = {}
+
+
+def rfft_plan(shape: tuple[int, int], batch: int | None = None) -> RealFFT2:
+    """The cached :class:`RealFFT2` of this shape and batch (planned on first use)."""
+    key = (int(shape[0]), int(shape[1]), batch)
+    plan = _PLANS.get(key)
+    if plan is None:
+        plan = _PLANS[key] = RealFFT2(shape, batch)
+    return plan
+
+
+def fourier_shift(spectrum: np.ndarray, grid: Grid, sx: float, sy: float = 0.0) -> np.ndarray:
+    """Half spectrum of the field translated by (sx, sy): f(x − sx, y − sy), exactly (periodic).
+
+    Multiplies by e^{−i k_x s_x} e^{−i k_y s_y}. On an even-sized axis the Nyquist wave cannot
+    tell +k from −k; its factor is taken as cos(k s), the symmetric band-limited choice, which
+    keeps the field real and is exact for whole-cell shifts.
+    """
+    px = np.exp(-1j * grid.kx * sx)
+    py = np.exp(-1j * grid.ky * sy)
+    if grid.nx % 2 == 0:
+        px[grid.nx // 2] = px[grid.nx // 2].real
+    if grid.ny % 2 == 0:
+        py[:, -1] = py[:, -1].real
+    phase = px * py
+    return spectrum * phase
