@@ -1,0 +1,202 @@
+"""Dry elastic–perfectly-plastic contact of two rough surfaces on a periodic window, by FFT.
+
+The problem (MODEL.md §4.1 step 3, level ``dry``): find the pressure p(x, y) with mean P and
+0 ≤ p ≤ p_lim, and the rigid approach δ, such that the deformed gap
+
+    g = g0 + u(p) − δ,   û(k) = 4 p̂(k) / (E' |k|)   (k ≠ 0; both bodies, MODEL.md §4.1 step 1)
+
+satisfies g ≥ 0 where p = 0, g = 0 where 0 < p < p_lim, and g ≤ 0 where p = p_lim (the material
+has yielded and the surfaces interpenetrate by the plastically flattened height).
+
+Solved by the conjugate-gradient method of Polonsky & Keer (Wear 231 (1999) 206–219) on the set
+of elastic contact points, extended with the upper bound: points at p_lim are held at the cap and
+leave it when their gap opens, as points at zero pressure enter the contact when their gap closes.
+The load is imposed exactly after every step (scaling of the pressures, with the cap).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from micropit_hpc.errors import MicropitError
+from micropit_hpc.spectral import Grid, rfft_plan
+
+
+class ContactError(MicropitError):
+    """A contact problem that has no solution or whose solver did not converge."""
+
+
+@dataclass(frozen=True)
+class DryContact:
+    """Solution of a dry contact problem (SI).
+
+    ``gap`` is the deformed gap g = g0 + u − δ (0 on elastic contact, < 0 where plastic);
+    ``approach`` is δ; ``error`` the final relative residual (see :func:`solve_dry_contact`).
+    """
+
+    pressure: np.ndarray
+    gap: np.ndarray
+    approach: float
+    iterations: int
+    error: float
+
+    @property
+    def contact(self) -> np.ndarray:
+        """Points that carry pressure."""
+        return self.pressure > 0.0
+
+    @property
+    def area_fraction(self) -> float:
+        return float(np.count_nonzero(self.pressure > 0.0)) / self.pressure.size
+
+
+class ElasticHalfSpaces:
+    """The combined surface compliance of two elastic half-spaces on a periodic grid:
+    û = (4/(E' κ)) p̂ (MODEL.md §4.1 step 1; Johnson, Contact Mechanics §3.? for one body:
+    2(1−ν²)/(E κ)). The mean mode is left out: a uniform pressure only moves the bodies
+    together, which the rigid approach accounts for."""
+
+    def __init__(self, grid: Grid, E_prime: float):
+        self.grid = grid
+        self.E_prime = float(E_prime)
+        kappa = grid.kappa.copy()
+        kappa[0, 0] = 1.0
+        self.compliance = 4.0 / (self.E_prime * kappa)
+        self.compliance[0, 0] = 0.0
+        self._fft = rfft_plan(grid.shape)
+
+    def displacement(self, p: np.ndarray) -> np.ndarray:
+        """Combined normal displacement u(p) of the two surfaces (zero mean) [m]."""
+        fft = self._fft
+        return fft.inverse(fft.forward(p) * self.compliance)
+
+    def pressure(self, u: np.ndarray) -> np.ndarray:
+        """Inverse: the zero-mean pressure whose displacement is the fluctuation of u [Pa]."""
+        fft = self._fft
+        stiff = np.zeros_like(self.compliance)
+        np.divide(1.0, self.compliance, out=stiff, where=self.compliance > 0)
+        return fft.inverse(fft.forward(u) * stiff)
+
+
+def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float,
+                   tol: float, max_iter: int, p: np.ndarray,
+                   excluded: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, int, float]:
+    """Elastic load-controlled contact, Polonsky & Keer (1999) eqs. (13)–(22); points in
+    ``excluded`` carry no pressure and may not enter. Returns (p, g − ḡ, iterations, ε)."""
+    N = g0.size
+    allowed = None if excluded is None else ~excluded
+    if allowed is not None:
+        p[excluded] = 0.0
+    p *= P * N / p.sum()
+    t = np.zeros_like(g0)
+    G_old, conjugate, error = 1.0, False, math.inf
+    for it in range(1, max_iter + 1):
+        g = g0 + hs.displacement(p)
+        contact = p > 0.0
+        g -= g[contact].mean()
+        r_c = np.where(contact, g, 0.0)
+        G = float(np.vdot(r_c, r_c))
+        error = math.sqrt(G / np.count_nonzero(contact)) / scale
+        if error <= tol:
+            return p, g, it, error
+        t = r_c + (G / G_old) * t if conjugate else r_c
+        t[~contact] = 0.0
+        G_old = G
+        r = hs.displacement(t)
+        r -= r[contact].mean()
+        curvature = float(np.vdot(r, t))
+        if curvature <= 0.0:   # no descent left at round-off level
+            return p, g, it, error
+        tau = float(np.vdot(r_c, t)) / curvature
+        p = p - tau * t
+        np.maximum(p, 0.0, out=p)
+        enter = (p == 0.0) & (g < 0.0)          # overlap without pressure: enters the contact
+        if allowed is not None:
+            enter &= allowed
+        conjugate = not enter.any()
+        if not conjugate:
+            p[enter] -= tau * g[enter]
+        p *= P * N / p.sum()
+    return p, g, max_iter, error
+
+
+def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pressure: float,
+                      p_lim: float = math.inf, tol: float = 1e-8, max_iter: int = 2000,
+                      p_init: np.ndarray | None = None) -> DryContact:
+    """Load-controlled elastic–perfectly-plastic contact of the undeformed gap ``gap0``.
+
+    Elastic part: Polonsky & Keer (1999), converged when the relative residual
+
+        ε = rms(g − ḡ over the elastic contact points) / rms(g0 − mean g0) ≤ tol.
+
+    Cap 0 ≤ p ≤ p_lim (MODEL.md §4.1 step 3; p_lim = 0.6 H by default there): the plastic
+    set is found by the fixed-point iteration of Jacq et al. (J. Tribol. 124 (2002) 653–667):
+    points at p_lim are held at the cap, the elastic problem is solved on the rest, points whose
+    elastic pressure exceeds the cap join the set and points of the set whose gap opens leave
+    it, until the set no longer changes. ``p_init`` warm-starts the iteration (e.g. the previous
+    time step's pressure); ``max_iter`` bounds the total number of CG steps.
+
+    Raises :class:`ContactError` when the load cannot be carried (P ≥ p_lim) or the iteration
+    does not converge.
+    """
+    hs = half_spaces
+    grid = hs.grid
+    g0 = np.asarray(gap0, dtype=float)
+    if g0.shape != grid.shape:
+        raise ValueError(f"gap shape {g0.shape} != grid {grid.shape}")
+    P = float(mean_pressure)
+    if not math.isfinite(P) or P < 0.0:
+        raise ContactError(f"dry contact: mean pressure {P} Pa must be finite and ≥ 0")
+    if P == 0.0:
+        g = g0 - g0.min()
+        return DryContact(np.zeros_like(g0), g, float(g0.min()), 0, 0.0)
+    if P >= p_lim:
+        raise ContactError(
+            f"dry contact: mean pressure {P / 1e9:.4g} GPa ≥ the pressure cap p_lim = "
+            f"{p_lim / 1e9:.4g} GPa: the whole window would yield (raise the hardness or "
+            "lower the load)")
+    scale = float(np.sqrt(np.mean((g0 - g0.mean()) ** 2)))
+    if np.ptp(g0) == 0.0:  # flat: uniform pressure is the exact solution
+        return DryContact(np.full_like(g0, P), np.zeros_like(g0), float(g0.mean()), 0, 0.0)
+
+    p = np.full_like(g0, P) if p_init is None else np.clip(p_init, 0.0, None).astype(float)
+    if not p.any():
+        p[...] = P
+    plastic = p >= p_lim
+    used, error = 0, math.inf
+    N = g0.size
+    for _ in range(200):
+        n_pl = np.count_nonzero(plastic)
+        P_el = P - p_lim * n_pl / N if n_pl else P
+        if P_el <= 0.0:   # too many points at the cap: release the ones with the widest gaps
+            plastic[...] = False
+            n_pl, P_el = 0, P
+        g_fixed = g0
+        if n_pl:
+            g_fixed = g0 + hs.displacement(np.where(plastic, p_lim, 0.0))
+            p = np.where(plastic, 0.0, p)
+            if not p.any():
+                p = np.where(plastic, 0.0, P_el)
+        p, g, it, error = _polonsky_keer(g_fixed, hs, P_el, scale, tol, max_iter - used, p,
+                                         plastic if n_pl else None)
+        used += it
+        if error > tol:
+            break
+        p_total = np.where(plastic, p_lim, p)
+        grow = p > p_lim
+        release = plastic & (g > 0.0)
+        if not grow.any() and not release.any():
+            p = p_total
+            break
+        plastic = (plastic & ~release) | grow
+        p = p_total
+        np.minimum(p, p_lim, out=p)
+    if error > tol or used >= max_iter:
+        raise ContactError(
+            f"dry contact did not converge: relative residual {error:.3g} > tolerance {tol:.3g} "
+            f"after {used} iterations (raise lubrication.max_iterations or the tolerance; "
+            "check that the roughness is resolved by the grid)")
+    return DryContact(p, g, float(np.mean(g0 + hs.displacement(p) - g)), used, error)

@@ -1,0 +1,156 @@
+"""Dry FFT contact (Polonsky–Keer with a pressure cap) against Hertz and Westergaard."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from micropit_hpc.lubrication.dry import ContactError, ElasticHalfSpaces, solve_dry_contact
+from micropit_hpc.spectral import Grid
+
+E, NU = 210e9, 0.3
+E_PRIME = E / (1 - NU**2)          # 2/E' = Σ(1 − ν²)/E for two steel bodies
+E_STAR = E_PRIME / 2               # Johnson's contact modulus
+R = 0.01
+
+
+def _window(n=256, length=2e-3):
+    g = Grid(n, n, length, length)
+    X, Y = np.meshgrid(g.x, g.y, indexing="ij")
+    return g, X, Y
+
+
+def test_sphere_against_hertz_256():
+    """Johnson eq. 4.22/4.23: a³ = 3PR/(4E*), p0 = 3P/(2πa²). Contact radius a = L/8, so the
+    periodic images change the solution by ~(a/L)³ (0.2 %); measured 0.25 % and 0.37 %."""
+    g, X, Y = _window()
+    a = g.lx / 8
+    P = 4 * E_STAR * a**3 / (3 * R)
+    p0 = 3 * P / (2 * math.pi * a**2)
+    r = solve_dry_contact((X**2 + Y**2) / (2 * R), ElasticHalfSpaces(g, E_PRIME), P / g.lx**2)
+    a_num = math.sqrt(np.count_nonzero(r.contact) * g.dx * g.dy / math.pi)
+    assert r.pressure.max() == pytest.approx(p0, rel=0.01)
+    assert a_num == pytest.approx(a, rel=0.01)
+    assert r.pressure.mean() == pytest.approx(P / g.lx**2, rel=1e-10)
+
+
+def test_cylinder_against_hertz_256():
+    """Johnson eq. 4.43/4.45: b² = 4wR/(πE*), p0 = 2w/(πb). Half-width b = L/16: the periodic
+    row of cylinders shifts p0 and b by ~(b/L)² (0.3 %; 1.3 % at b = L/8, 0.05 % at L/32).
+    Width from the pressure's second moment, ∫p x² / ∫p = b²/4 for Hertz; and from the count of
+    contact points to within one grid spacing."""
+    g, X, _ = _window()
+    b = g.lx / 16
+    w = math.pi * E_STAR * b**2 / (4 * R)
+    p0 = 2 * w / (math.pi * b)
+    r = solve_dry_contact(X**2 / (2 * R), ElasticHalfSpaces(g, E_PRIME), w / g.lx)
+    row = r.pressure[:, 0]
+    b_moment = 2 * math.sqrt((row * g.x**2).sum() / row.sum())
+    assert r.pressure.max() == pytest.approx(p0, rel=0.01)
+    assert b_moment == pytest.approx(b, rel=0.01)
+    assert abs(np.count_nonzero(row) * g.dx - 2 * b) <= 1.01 * g.dx
+    assert np.ptp(r.pressure, axis=1).max() < 1e-9 * p0   # uniform along the cylinder
+
+
+def _westergaard(n=256):
+    lam = 1e-3
+    g = Grid(n, 4, lam, lam / n * 4)
+    delta = 1e-6
+    gap0 = np.broadcast_to((delta * (1 - np.cos(2 * np.pi * g.x / lam)))[:, None], g.shape)
+    p_star = math.pi * E_STAR * delta / lam          # Johnson eq. 13.9: full contact from p*
+    return g, lam, gap0.copy(), p_star
+
+
+def test_westergaard_full_contact():
+    """Above p* the surfaces touch everywhere and p = p̄ + p* cos(2πx/λ) exactly."""
+    g, lam, gap0, p_star = _westergaard()
+    p_mean = 1.5 * p_star
+    r = solve_dry_contact(gap0, ElasticHalfSpaces(g, E_PRIME), p_mean, tol=1e-12)
+    exact = p_mean + p_star * np.cos(2 * np.pi * g.x / lam)
+    assert np.abs(r.pressure[:, 0] - exact).max() < 1e-9 * p_star
+    assert r.area_fraction == 1.0
+    assert np.abs(r.gap).max() < 1e-9 * 1e-6
+
+
+def test_westergaard_partial_contact():
+    """Below p*: sin²(πa/λ) = p̄/p* and p(x) = 2p̄ cos(πx/λ) √(sin²(πa/λ) − sin²(πx/λ)) /
+    sin²(πa/λ) (Johnson eq. 13.12–13.14)."""
+    g, lam, gap0, p_star = _westergaard(512)
+    p_mean = 0.3 * p_star
+    r = solve_dry_contact(gap0, ElasticHalfSpaces(g, E_PRIME), p_mean)
+    a = lam / math.pi * math.asin(math.sqrt(p_mean / p_star))
+    s2a = math.sin(math.pi * a / lam) ** 2
+    x = g.x
+    exact = np.where(np.abs(x) < a, 2 * p_mean * np.cos(np.pi * x / lam) / s2a * np.sqrt(
+        np.clip(s2a - np.sin(np.pi * x / lam) ** 2, 0, None)), 0.0)
+    row = r.pressure[:, 0]
+    assert abs(np.count_nonzero(row) * g.dx - 2 * a) <= 1.01 * g.dx   # contact area
+    assert row.max() == pytest.approx(exact.max(), rel=5e-3)
+    assert np.abs(row - exact).max() < 0.05 * exact.max()             # edge cells: √ profile
+    assert row.mean() == pytest.approx(p_mean, rel=1e-10)
+
+
+def _rough(seed=3, n=128):
+    """A band-limited random gap on a small window (no surfaces package needed)."""
+    g = Grid(n, n, 2e-4, 2e-4)
+    rng = np.random.default_rng(seed)
+    spec = np.fft.rfft2(rng.standard_normal(g.shape))
+    spec *= np.exp(-(g.kappa * 8e-6) ** 2)
+    z = np.fft.irfft2(spec, s=g.shape)
+    z *= 1e-6 / z.std()
+    return g, z - z.min()
+
+
+def test_pressure_cap_and_load_balance():
+    """With p_lim below the elastic peak the cap holds, the mean is the load to 1e-10, and the
+    complementarity conditions hold: g ≥ 0 off contact, g = 0 on elastic contact, g ≤ 0 where
+    the material yielded."""
+    g, gap0 = _rough()
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    P = 1.0e9
+    elastic = solve_dry_contact(gap0, hs, P)
+    p_lim = 0.5 * elastic.pressure.max()
+    r = solve_dry_contact(gap0, hs, P, p_lim=p_lim)
+    assert r.pressure.max() <= p_lim
+    assert r.pressure.min() >= 0.0
+    assert r.pressure.mean() == pytest.approx(P, rel=1e-10)
+    plastic = r.pressure >= p_lim
+    free = r.pressure == 0.0
+    on = ~plastic & ~free
+    scale = gap0.std()
+    assert plastic.any() and on.any()
+    assert r.gap[free].min() >= -1e-6 * scale
+    assert np.abs(r.gap[on]).max() <= 1e-5 * scale
+    assert r.gap[plastic].max() <= 1e-6 * scale
+    assert r.area_fraction > elastic.area_fraction     # yielding spreads the load
+
+
+def test_warm_start_gives_the_same_answer_faster():
+    g, gap0 = _rough(5)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    cold = solve_dry_contact(gap0, hs, 0.8e9, tol=1e-10)
+    warm = solve_dry_contact(gap0, hs, 0.8e9, tol=1e-10, p_init=cold.pressure)
+    assert warm.iterations < cold.iterations
+    assert np.abs(warm.pressure - cold.pressure).max() < 1e-6 * cold.pressure.max()
+
+
+def test_zero_load_touches_and_flat_surfaces_carry_uniform_pressure():
+    g, gap0 = _rough()
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    r = solve_dry_contact(gap0 + 3e-7, hs, 0.0)
+    assert r.gap.min() == 0.0 and not r.contact.any()
+    flat = solve_dry_contact(np.full(g.shape, 2e-7), hs, 1e9)
+    assert np.all(flat.pressure == 1e9)
+
+
+def test_errors_are_clear():
+    g, gap0 = _rough()
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    with pytest.raises(ContactError, match=r"did not converge.*after 3 iterations"):
+        solve_dry_contact(gap0, hs, 1e9, max_iter=3)
+    with pytest.raises(ContactError, match="whole window would yield"):
+        solve_dry_contact(gap0, hs, 5e9, p_lim=4.2e9)
+    with pytest.raises(ContactError, match="finite"):
+        solve_dry_contact(gap0, hs, math.nan)
