@@ -1,0 +1,293 @@
+"""The fast mixed-lubrication model of [M10]/[B11] at one time step (MODEL.md §4.1, `mixed`).
+
+Per Fourier mode k of the rough clearance of each surface i (r_i = −ẑ_i, its share of the
+undeformed gap h̄ − z1 − z2), with the window travelling at ū through the contact:
+
+1. elastic response of both bodies û = 4p̂/(E'κ) (:class:`~.dry.ElasticHalfSpaces`);
+2. lubricated part, linearised Reynolds with Eyring viscosities η_x, η_y (:mod:`.rheology`):
+   the particular solution h_a/r = (1 − iCQ)/(1 − iQ − iCQ), which moves with the surface, and
+   the complementary wave made at the inlet, which is convected at ū and decays with the
+   wavenumber ψ of the dispersion relation; its amplitude makes the in-contact clearance
+   amplitude h_t = r/(1 + c1∇_nn + c2∇_nn²) (the [V00] amplitude reduction with the sliding
+   correction ∇_nn);
+3. dry part: elastic–perfectly-plastic contact of that lubricated clearance carrying φp̄;
+4. pressure from the total displacement through the inverse frequency response, clipped to
+   [0, p_lim], mean restored to p̄;
+5. φ from the flow balance: mean deformed clearance = c_ρ(φp̄) h̄.
+
+Choices we made where the published model is silent (each a documented parameter):
+
+* **In the window frame** the particular part of surface i is its current (shifted) pattern,
+  the complementary part is the pattern it had when the window entered the contact
+  (x_c = −b, t = 0), multiplied by e^{i(ψ − k_x u_i/ū) ū t}: the wave travels with the window
+  while the surface slides by (u_i − ū)t under it. The decay rate is taken at the current step's
+  p̄ (frozen coefficient). At pure rolling both parts coincide and the clearance amplitude is
+  h_t throughout.
+* **Fluid share** (``fluid_share = "scaled"``): the fluid's deformation of the roughness is
+  scaled by the fraction of the load the fluid carries, 1 − φ: H_lub = r + (1 − φ)(H_t − r).
+  The [V00] reduction is a full-film result (φ = 0); without the scaling a vanishing film would
+  not tend to the dry solution. ``"full"`` keeps the unscaled deformation.
+* **Combination** (``combine = "contact"``): the dry contact acts on the lubricated clearance,
+  so the final clearance is the dry solution's gap and the pressure is fluid + contact.
+  ``"max_amplitude"`` is the literal rule of MODEL.md step 4 (keep, per mode, the larger
+  clearance amplitude of the dry and the lubricated solutions); it undoes the flattening of
+  the contact spots and is offered for comparison only.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from micropit_hpc.errors import MicropitError
+from micropit_hpc.lubrication import rheology
+from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
+from micropit_hpc.spectral import Grid, rfft_plan
+
+
+@dataclass(frozen=True)
+class MixedParameters:
+    """Settings of the mixed model (SI). ``prefactor`` is c_nn of ∇_nn (calibrated default,
+    :func:`~.rheology.calibrated_prefactor`)."""
+
+    eta0: float
+    alpha: float
+    tau0: float
+    p_lim: float = math.inf
+    prefactor: float = rheology.calibrated_prefactor()
+    fit_c1: float = 0.15
+    fit_c2: float = 0.015
+    fluid_share: str = "scaled"
+    combine: str = "contact"
+    tol: float = 1e-8
+    max_iter: int = 2000
+    film_tol: float = 1e-4
+
+
+@dataclass(frozen=True)
+class MixedSolution:
+    """Pressure [Pa], clearance [m] and the load fraction φ carried by solid contact."""
+
+    pressure: np.ndarray
+    clearance: np.ndarray
+    phi: float
+    iterations: int
+    film_mean: float
+
+
+def solve_dispersion(a, c, e, ky, eta_x, eta_y, steps: int = 8, newton: int = 8):
+    """Wavenumber ψ of the complementary wave, per mode (MODEL.md §4.1 step 2):
+
+        ψ = k_x u_i/ū + i E' h̄³ Ω (ψ²/η_x + k_y²/η_y) / (48 ū (1 + E' h̄ Ω/(4B))),
+        Ω² = ψ² + k_y²  (η_x multiplies ψ²; two published versions have a typo),
+
+    written as ψ = a + i c Ω (ψ²/η_x + k_y²/η_y)/(1 + eΩ) with a = k_x u_i/ū,
+    c = E'h̄³/(48ū), e = E'h̄/(4B). Solved by Newton's method with continuation in c from the
+    inviscid root ψ = a (``steps`` stages), which follows the physical branch (Im ψ ≥ 0: the
+    wave decays away from the inlet) even where the viscous term dominates. Returns (ψ, the
+    largest relative residual).
+    """
+    a = np.asarray(a, dtype=complex)
+    ky2 = np.asarray(ky, dtype=float) ** 2
+    psi = a.copy()
+    for s in np.geomspace(1.0 / 2 ** (steps - 1), 1.0, steps):
+        cs = c * s
+        for _ in range(newton):
+            omega = np.sqrt(psi * psi + ky2)
+            omega = np.where(omega == 0, 1e-300, omega)
+            flux = psi * psi / eta_x + ky2 / eta_y
+            den = 1.0 + e * omega
+            F = psi - a - 1j * cs * omega * flux / den
+            d_omega = psi / omega
+            dF = 1.0 - 1j * cs * ((d_omega * flux + omega * 2 * psi / eta_x) * den
+                                  - omega * flux * e * d_omega) / den**2
+            psi = psi - F / dF
+    omega = np.sqrt(psi * psi + ky2)
+    F = psi - a - 1j * c * omega * (psi * psi / eta_x + ky2 / eta_y) / (1.0 + e * omega)
+    scale = np.maximum(np.abs(psi), np.abs(a)) + 1e-300
+    return psi, float(np.max(np.abs(F) / scale))
+
+
+class MixedLubrication:
+    """The mixed model on one window for one contact (MODEL.md §4.1).
+
+    ``geometry``, ``load``, ``R``, ``b`` describe the macro contact (line: load per unit
+    length; elliptical: total load, R = R_x, b the semi-axis along rolling); ``h_mean`` is the
+    smooth central film h̄; ``u1``, ``u2`` the surface speeds.
+    """
+
+    def __init__(self, grid: Grid, *, geometry: str, load: float, R: float, b: float,
+                 u1: float, u2: float, h_mean: float, E_prime: float,
+                 params: MixedParameters):
+        self.grid, self.params = grid, params
+        self.E_prime, self.h_mean = float(E_prime), float(h_mean)
+        self.u = (float(u1), float(u2))
+        self.u_mean = 0.5 * (u1 + u2)
+        self.hs = ElasticHalfSpaces(grid, E_prime)
+        self._fft = rfft_plan(grid.shape)
+        M, L = rheology.moes_parameters(geometry, load, R, E_prime, params.eta0, self.u_mean,
+                                        params.alpha)
+        self.moes = (M, L)
+        # Venner–Lubrecht wavelength parameter of every mode, before the sliding correction
+        kx, ky = np.abs(grid.kx), grid.ky
+        with np.errstate(divide="ignore"):
+            lam_x = np.where(kx > 0, 2 * np.pi / np.where(kx > 0, kx, 1), np.inf)
+            lam_y = np.where(ky > 0, 2 * np.pi / np.where(ky > 0, ky, 1), np.inf)
+        lam = np.minimum(lam_x, lam_y)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            r = lam_x / lam_y
+            fbar = np.where(r > 1, np.exp(1 - 1 / np.where(r > 1, r, 1)), 1.0)
+        if geometry == "line":
+            nabla = lam / b * M**0.75 / L**0.5
+        else:
+            nabla = lam / b * math.sqrt(M / L)
+        nabla = nabla * fbar
+        nabla[0, 0] = 0.0
+        self.nabla = nabla
+
+    # ---- step 2: lubricated clearance -------------------------------------------------------
+    def lubricated_factors(self, body: int, p_mean: float, t: float):
+        """(h_a/r, h_t/r, decay) of surface ``body`` (1 or 2) per mode at mean pressure p̄ and
+        time t since the window entered: H_lub,i = (h_a/r) r_i(t) + (h_t/r − h_a/r) r_i(0) D."""
+        g, prm = self.grid, self.params
+        ui, uj = self.u[body - 1], self.u[2 - body]
+        ub, h, Ep = self.u_mean, self.h_mean, self.E_prime
+        eta = rheology.barus_viscosity(prm.eta0, prm.alpha, p_mean)
+        eta_x, eta_y = rheology.eyring_viscosities(eta, prm.tau0, abs(ui - uj) / h)
+        B = float(rheology.bulk_modulus(p_mean))
+        kx, ky, kappa = g.kx, g.ky, g.kappa
+        kap = np.where(kappa > 0, kappa, 1.0)
+        flux = kx * kx / eta_x + ky * ky / eta_y
+        flux = np.where(flux > 0, flux, 1.0)
+        Q = 48 * (ui - ub) * kx / (Ep * h**3 * kap * flux)
+        C = h * Ep * kap / (4 * B)
+        h_a = (1 - 1j * C * Q) / (1 - 1j * Q - 1j * C * Q)
+        # sliding-corrected amplitude reduction
+        S_i = (ui - uj) / ub
+        with np.errstate(invalid="ignore", divide="ignore"):
+            K = 1 - np.tanh(0.25 * np.abs(Q) / np.where(self.nabla > 0, self.nabla, 1.0))
+        base = max((1 + S_i) / 2, 0.0)
+        nabla_nn = prm.prefactor * self.nabla * base ** (0.1 + 0.5 * K)
+        h_t = rheology.amplitude_ratio(nabla_nn, prm.fit_c1, prm.fit_c2)
+        # complementary wave: decay e^{i(ψ − k_x u_i/ū) ū t}, |D| ≤ 1
+        a = kx * ui / ub + 0 * ky
+        psi, _ = solve_dispersion(a, Ep * h**3 / (48 * ub), h * Ep / (4 * B), ky + 0 * kx,
+                                  eta_x, eta_y)
+        exponent = 1j * (psi - a) * ub * t
+        D = np.exp(np.minimum(exponent.real, 0.0) + 1j * exponent.imag)
+        h_a[0, 0] = h_t[0, 0] = D[0, 0] = 1.0
+        return h_a, h_t, D
+
+    def lubricated_clearance(self, r_now, r_entry, p_mean: float, t: float) -> np.ndarray:
+        """Half spectrum of the full-film clearance fluctuation Σ_i H_lub,i (mean mode 0)."""
+        H = np.zeros(self.grid.spectral_shape, dtype=complex)
+        for body in (1, 2):
+            h_a, h_t, D = self.lubricated_factors(body, p_mean, t)
+            H += h_a * r_now[body - 1] + (h_t - h_a) * r_entry[body - 1] * D
+        H[0, 0] = 0.0
+        return H
+
+    # ---- steps 3–5 --------------------------------------------------------------------------
+    def solve(self, r_now, r_entry, p_mean: float, t: float,
+              p_init: np.ndarray | None = None) -> MixedSolution:
+        """Pressure and clearance at one step. ``r_now``/``r_entry``: half spectra of each
+        surface's rough clearance −z_i at time t and at the window's entry (t = 0)."""
+        prm, fft, g = self.params, self._fft, self.grid
+        r_tot = r_now[0] + r_now[1]
+        r_tot = r_tot.copy()
+        r_tot[0, 0] = 0.0
+        H_t = self.lubricated_clearance(r_now, r_entry, p_mean, t)
+        h_bar = self.h_mean
+        state = {"p": p_init, "iters": 0}
+
+        def clearance_spectrum(phi):
+            if prm.fluid_share == "scaled":
+                return r_tot + (1.0 - phi) * (H_t - r_tot)
+            return H_t
+
+        def dry(phi):
+            H_lub = fft.inverse(clearance_spectrum(phi))
+            sol = solve_dry_contact(H_lub, self.hs, phi * p_mean, p_lim=prm.p_lim, tol=prm.tol,
+                                    max_iter=prm.max_iter, p_init=state["p"])
+            state["iters"] += sol.iterations
+            if sol.pressure.any():
+                state["p"] = sol.pressure
+            return H_lub, sol
+
+        def film(phi):
+            _, sol = dry(phi)
+            c_rho = float(rheology.density_correction(phi * p_mean))
+            return float(np.maximum(sol.gap, 0.0).mean()) - c_rho * h_bar, sol
+
+        f0, sol0 = film(0.0)
+        if f0 <= 0.0:  # full film: the fluid carries everything, surfaces apart
+            phi = 0.0
+            H_lub = fft.inverse(H_t)
+            clearance = H_lub - H_lub.mean() + h_bar
+            return self._finish(H_t, r_tot, clearance, 0.0, p_mean, state["iters"], h_bar)
+        f1, sol1 = film(1.0)
+        if f1 >= 0.0:
+            phi, sol = 1.0, sol1
+        else:
+            lo, hi, flo, fhi = 0.0, 1.0, f0, f1
+            sol = sol1
+            phi = 1.0
+            for _ in range(60):  # regula falsi (Illinois) on the monotone film balance
+                phi = hi - fhi * (hi - lo) / (fhi - flo)
+                f, sol = film(phi)
+                if abs(f) <= prm.film_tol * h_bar or hi - lo < 1e-9:
+                    break
+                if f > 0:
+                    lo, flo = phi, f
+                    fhi *= 0.5
+                else:
+                    hi, fhi = phi, f
+                    flo *= 0.5
+        clearance = sol.gap
+        H_final = fft.forward(clearance)
+        if prm.combine == "max_amplitude":
+            H_lub = clearance_spectrum(phi)
+            keep = np.abs(H_lub) > np.abs(H_final)
+            H_final = np.where(keep, H_lub, H_final)
+            H_final[0, 0] = clearance.mean() * g.nx * g.ny
+            clearance = fft.inverse(H_final)
+        return self._finish(H_final, r_tot, clearance, phi, p_mean, state["iters"],
+                            float(np.maximum(clearance, 0).mean()))
+
+    def _finish(self, H, r_tot, clearance, phi, p_mean, iters, film_mean) -> MixedSolution:
+        """Step 4: pressure from the total displacement H − r through the inverse frequency
+        response, clipped to [0, p_lim], mean restored to p̄."""
+        stiff = np.zeros_like(self.hs.compliance)
+        np.divide(1.0, self.hs.compliance, out=stiff, where=self.hs.compliance > 0)
+        dp = H - r_tot
+        dp[0, 0] = 0.0
+        p = self._fft.inverse(dp * stiff)
+        p = restore_mean(p, p_mean, self.params.p_lim)
+        return MixedSolution(p, clearance, float(phi), int(iters), float(film_mean))
+
+
+def restore_mean(p: np.ndarray, p_mean: float, p_lim: float = math.inf) -> np.ndarray:
+    """clip(p + c, 0, p_lim) with the constant c chosen so the mean is p̄ (monotone in c;
+    bisection to 1e-13 relative)."""
+    if p_mean >= p_lim:
+        raise MicropitError(f"mean pressure {p_mean / 1e9:.4g} GPa ≥ p_lim "
+                            f"{p_lim / 1e9:.4g} GPa: the window cannot carry it")
+    lo, hi = p_mean - p.max(), p_mean - p.min() + p_mean
+    hi = max(hi, lo)
+    for _ in range(200):
+        c = 0.5 * (lo + hi)
+        m = np.clip(p + c, 0.0, p_lim).mean()
+        if m > p_mean:
+            hi = c
+        else:
+            lo = c
+        if hi - lo <= 1e-13 * max(abs(c), p_mean):
+            break
+    q = np.clip(p + 0.5 * (lo + hi), 0.0, p_lim)
+    # remove the last round-off in the mean on the unclipped points
+    free = (q > 0) & (q < p_lim)
+    if free.any():
+        q[free] += (p_mean - q.mean()) * q.size / np.count_nonzero(free)
+    return q
