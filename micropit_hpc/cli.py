@@ -37,6 +37,54 @@ def _cmd_contact(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_snapshot(args: argparse.Namespace) -> int:
+    import time
+    from pathlib import Path
+
+    from micropit_hpc.conditions import contact_study
+    from micropit_hpc.cycle import PositionCycle
+    from micropit_hpc.io.snapshot import write_snapshot
+    from micropit_hpc.parallel import world
+    from micropit_hpc.plots import snapshot_figure
+    from micropit_hpc.scene import load_scene
+
+    comm = world()
+    scene = load_scene(args.scene)
+    if comm.rank != 0:      # one step of one position is a one-rank job: the others wait
+        return 0
+    t0 = time.perf_counter()
+    study = contact_study(scene)
+    cycle = PositionCycle(study, args.position)
+    if args.step is None:
+        args.step = (cycle.steps + 1) // 2
+    if args.step > cycle.steps:
+        raise MicropitError(f"--step {args.step}: the cycle has steps 1 to {cycle.steps} "
+                            f"(window.steps = {cycle.steps} in {scene.source})")
+    step = args.step - 1
+    fields = cycle.solve_step(step)
+    t1 = time.perf_counter()
+    stresses = {i: cycle.stresses(fields, i) for i in (1, 2)}
+    t2 = time.perf_counter()
+    out = Path(args.out)
+    try:
+        h5 = write_snapshot(out / "snapshot.h5", cycle, fields, stresses)
+        png = snapshot_figure(out / "snapshot.png", cycle, fields, stresses)
+    except OSError as e:
+        raise MicropitError(f"cannot write to --out {out}: {e.strerror or e}") from None
+    c, g = cycle.cond, cycle.grid
+    print(f"# {scene.name}: position {args.position} (S = {c.S:.4g}, p0 = {c.p0 / 1e9:.4g} GPa, "
+          f"Λ = {c.Lambda:.3g}), step {args.step}/{cycle.steps}: x_c = {fields.x_c * 1e6:.2f} µm, "
+          f"p̄ = {fields.p_mean / 1e9:.4g} GPa")
+    print(f"# level {fields.level}, grid {g.nx} x {g.ny} over {g.lx * 1e6:.1f} x "
+          f"{g.ly * 1e6:.1f} µm, {len(cycle.z)} layers to {cycle.z[-1] * 1e6:.2f} µm")
+    print(f"# solid-load fraction φ = {fields.phi:.4g}, solid contact "
+          f"{100 * fields.solid.mean():.2f} % of the window, max pressure "
+          f"{fields.pressure.max() / 1e9:.4g} GPa, contact solve {t1 - t0:.2f} s, stresses "
+          f"{t2 - t1:.2f} s")
+    print(f"# wrote {h5} and {png}", flush=True)
+    return 0
+
+
 def _cmd_check_env(args: argparse.Namespace) -> int:
     from micropit_hpc.checkenv import main as check_env
 
@@ -66,7 +114,7 @@ def _cmd_scene(args: argparse.Namespace) -> int:
 
 def _positive_int(text: str) -> int:
     if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"expected a positive number of ranks, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
     return int(text)
 
 
@@ -91,6 +139,20 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("scene", metavar="SCENE", help="scene file (TOML)")
     p.add_argument("--csv", metavar="FILE", help="also write the table to FILE (CSV only)")
     p.set_defaults(func=_cmd_contact)
+
+    p = sub.add_parser("snapshot", parents=[common],
+                       help="one time step of one position: fields, stresses, maps",
+                       description="Solve one time step of one position of SCENE (contact "
+                                   "pressure, clearance, solid contact, tractions and the "
+                                   "stress tensor on every depth layer of both bodies) and "
+                                   "write DIR/snapshot.h5 and DIR/snapshot.png.")
+    p.add_argument("scene", metavar="SCENE", help="scene file (TOML)")
+    p.add_argument("--position", type=_positive_int, default=1, metavar="K",
+                   help="position number, 1-based, as in `micropit contact` (default 1)")
+    p.add_argument("--step", type=_positive_int, default=None, metavar="J",
+                   help="time step, 1-based, of window.steps (default: the middle one)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.set_defaults(func=_cmd_snapshot)
 
     p = sub.add_parser("check-env", parents=[common],
                        help="check MPI, parallel HDF5, PETSc and FFTW (run under mpirun)",

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import tomllib
 from collections.abc import Mapping
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Any
 
@@ -36,7 +36,8 @@ RPM = 2.0 * math.pi / 60.0
 # --------------------------------------------------------------------------------------------
 # key declarations
 # --------------------------------------------------------------------------------------------
-TOP_LEVEL = ("study", "gear", "disc", "body1", "body2", "lubricant", "film", "hertz", "positions")
+TOP_LEVEL = ("study", "gear", "disc", "body1", "body2", "lubricant", "film", "hertz", "positions",
+             "window", "lubrication", "stress")
 
 _STUDY = Section("study", "What the study is called.", (
     Key("name", "name", "str", "Name of the study, shown in reports and results. Default: the "
@@ -95,7 +96,65 @@ def _body_section(path: str, which: str) -> Section:
         Key("nu", "nu", "float", "Poisson's ratio.", default=0.3, lo=-1, hi=0.5, lo_open=True,
             hi_open=True),
         Key("Rq_um", "Rq", "float", "RMS roughness R_q of the surface.", "µm", UM, lo=0, hi=1e4),
+        Key("hardness_GPa", "hardness", "float", "Hardness H: the pressure cap p_lim = "
+            "lubrication.p_lim_hardness × the smaller H of the two bodies, and Archard wear.",
+            "GPa", GPA, default=7.0, lo=0, hi=1e3, lo_open=True),
+    ), children=("surface",))
+
+
+SURFACE_KINDS = ("gaussian", "self_affine", "file", "smooth")
+
+
+def _surface_section(path: str, which: str) -> Section:
+    return Section(path, f"""
+Topography of body {which} on the simulation window (MODEL.md §3). Synthetic surfaces are
+generated from `window.seed` with R_q = `Rq_um` of the body; a measured map is read, detrended,
+made periodic, resampled to the window grid and checked against `Rq_um`.
+""", (
+        Key("kind", "kind", "str", "`gaussian` (Gaussian random field, exponential or Gaussian "
+            "ACF), `self_affine` (fractal PSD between cut-offs), `file` (a measured map), "
+            "`smooth` (no roughness).", default="gaussian", choices=SURFACE_KINDS),
+        Key("corr_x_um", "corr_x", "float", "Correlation length β_x along rolling (lag where the "
+            "ACF falls to 0.1), for `gaussian`.", "µm", UM, default=30.0, lo=0, hi=1e6,
+            lo_open=True),
+        Key("corr_y_um", "corr_y", "float", "Correlation length β_y across rolling. Ground gears "
+            "and discs have their lay across the rolling direction: β_y ≫ β_x.", "µm", UM,
+            default=300.0, lo=0, hi=1e9, lo_open=True),
+        Key("acf", "acf", "str", "Autocorrelation function of a `gaussian` surface.",
+            default="exponential", choices=("exponential", "gaussian")),
+        Key("hurst", "hurst", "float", "Hurst exponent H of a `self_affine` surface.",
+            default=0.8, lo=0, hi=1, lo_open=True, hi_open=True),
+        Key("long_cutoff_um", "long_cutoff", "float", "Long-wavelength roll-off of a "
+            "`self_affine` surface. Default: the window length.", "µm", UM, default=None, lo=0,
+            hi=1e6, lo_open=True),
+        Key("short_cutoff_um", "short_cutoff", "float", "Short-wavelength cut-off of a "
+            "`self_affine` surface. Default: 4 grid spacings.", "µm", UM, default=None, lo=0,
+            hi=1e6, lo_open=True),
+        Key("file", "file", "str", "Measured height map (`.npy`, `.npz`, text matrix, HDF5, or "
+            "any format of the optional SurfaceTopography package such as `.x3p`); relative "
+            "to the scene file.", default=None),
+        Key("dataset", "dataset", "str", "HDF5 dataset (or instrument channel) to read.",
+            default=None),
+        Key("spacing_um", "spacing", "floats", "Grid spacing [Δx, Δy] of a map that does not "
+            "store it (`.npy`, text).", "µm", UM, default=None, lo=0, lo_open=True),
+        Key("height_unit", "height_unit", "str", "Unit of the heights stored in the file.",
+            default="m", choices=("m", "mm", "um", "nm")),
+        Key("detrend", "detrend", "str", "Detrending of a measured map (`quadratic` also "
+            "removes the flank's curvature).", default="plane",
+            choices=("none", "mean", "plane", "quadratic")),
+        Key("nan_policy", "nan_policy", "str", "Missing points (NaN) in a measured map: refuse, "
+            "fill with the mean, or interpolate from the neighbours.", default="error",
+            choices=("error", "fill_mean", "interpolate")),
+        Key("periodise", "periodise", "str", "How a measured map is made to tile without a "
+            "step: `tukey` taper of the edges, `mirror` (even reflection), `none`.",
+            default="tukey", choices=("none", "tukey", "mirror")),
+        Key("rescale", "rescale", "bool", "Scale a measured map to the body's `Rq_um` (by "
+            "default its R_q must agree with `Rq_um` within 5 %).", default=False),
     ))
+
+
+_SURFACE1 = _surface_section("body1.surface", "1")
+_SURFACE2 = _surface_section("body2.surface", "2")
 
 
 _BODY1 = _body_section("body1", "1 (the pinion or the test roller)")
@@ -114,6 +173,78 @@ Lubricant at the contact inlet temperature. Required unless `[film] hc_um` gives
     Key("conductivity_W_per_mK", "conductivity", "float", "Thermal conductivity k_f of the oil, "
         "for `thermal = \"wilson_sheu\"`.", "W/(m·K)", 1.0, default=None, lo=0, hi=1e3,
         lo_open=True),
+    Key("eyring_stress_MPa", "tau0", "float", "Eyring stress τ0 of the non-Newtonian film, "
+        "needed by the `mixed` lubrication model.", "MPa", 1e6, default=None, lo=0, hi=1e4,
+        lo_open=True),
+))
+
+_WINDOW = Section("window", """
+The computational window of one load cycle (MODEL.md §4): a periodic patch travelling with the
+entrainment speed from the inlet to the outlet of the contact in `steps` time steps. The same
+window and roughness patch are used at every position of a study.
+""", (
+    Key("n", "nx", "int", "Grid points along rolling (5-smooth sizes such as 64, 128, 256 are "
+        "fastest; any size works).", default=128, lo=8, hi=8192),
+    Key("ny", "ny", "int", "Grid points across rolling. Default: `n`.", default=None, lo=1,
+        hi=8192),
+    Key("length_x_um", "lx", "float", "Window length along rolling. Default: 2 b_ref, twice "
+        "the Hertz semi-width at the pitch point (a gear) or of the contact (a disc rig).",
+        "µm", UM, default=None, lo=0, hi=1e6, lo_open=True),
+    Key("length_y_um", "ly", "float", "Window length across rolling. Default: `length_x_um`.",
+        "µm", UM, default=None, lo=0, hi=1e6, lo_open=True),
+    Key("steps", "steps", "int", "Time steps per load cycle m (the paper used 20).",
+        default=20, lo=1, hi=100000),
+    Key("seed", "seed", "int", "Seed of the synthetic roughness (body 1 and body 2 draw "
+        "independent streams from it).", default=1, lo=0, hi=2**63 - 1),
+))
+
+LUBRICATION_MODELS = ("auto", "smooth", "dry", "mixed")
+
+_LUBRICATION = Section("lubrication", """
+Pressure and clearance of the rough surfaces at each time step (MODEL.md §4.1).
+""", (
+    Key("model", "model", "str", "`smooth` (no roughness: p = p̄), `dry` (elastic–perfectly-"
+        "plastic contact of the roughness; the fluid carries nothing), `mixed` (the fast "
+        "mixed-lubrication model), `auto` (`smooth` for Λ ≥ `auto_lambda` or smooth surfaces, "
+        "else `mixed`).", default="auto", choices=LUBRICATION_MODELS),
+    Key("auto_lambda", "auto_lambda", "float", "Λ from which `auto` treats the contact as "
+        "full-film and smooth.", default=3.0, lo=0, hi=1e3, lo_open=True),
+    Key("mu_boundary", "mu_bl", "float", "Friction coefficient on solid contact.", default=0.11,
+        lo=0, hi=2),
+    Key("mu_ehl", "mu_ehl", "float", "Friction coefficient of the fluid film.", default=0.05,
+        lo=0, hi=2),
+    Key("h_min_um", "h_min", "float", "Clearance at or below which a point is in solid "
+        "contact.", "µm", UM, default=0.0, lo=0, hi=100),
+    Key("p_lim_hardness", "p_lim_hardness", "float", "Pressure cap as a fraction of the "
+        "smaller hardness: p_lim = this × H.", default=0.6, lo=0, hi=10, lo_open=True),
+    Key("amplitude_prefactor", "prefactor", "float", "Prefactor c_nn of the sliding-corrected "
+        "wavelength parameter ∇_nn = c_nn ∇ ((1+S_i)/2)^(0.1+0.5K). Default: calibrated to the "
+        "pure-rolling case of Venner & Lubrecht (A_d/A_i = 0.739), 1.304; the printed value "
+        "is 0.8.", default=None, lo=0, hi=100),
+    Key("fluid_share", "fluid_share", "str", "`scaled`: the fluid flattens the roughness in "
+        "proportion to the load it carries, 1 − φ (a vanishing film then tends to the dry "
+        "solution); `full`: always the full-film amplitude reduction.", default="scaled",
+        choices=("scaled", "full")),
+    Key("combine", "combine", "str", "`contact`: the dry contact acts on the lubricated "
+        "clearance; `max_amplitude`: keep per Fourier mode the larger clearance amplitude of "
+        "the dry and the lubricated solutions (MODEL.md §4.1 step 4 as printed; for "
+        "comparison).", default="contact", choices=("contact", "max_amplitude")),
+    Key("tolerance", "tol", "float", "Relative residual at which the contact solver stops.",
+        default=1e-8, lo=1e-14, hi=1e-2),
+    Key("max_iterations", "max_iter", "int", "Iteration limit of one contact solve.",
+        default=5000, lo=10, hi=10**7),
+    Key("film_tolerance", "film_tol", "float", "Relative tolerance of the flow balance that "
+        "fixes the solid load fraction φ.", default=1e-4, lo=1e-12, hi=0.1),
+))
+
+_STRESS = Section("stress", "Subsurface stress layers (MODEL.md §4.2).", (
+    Key("layers", "layers", "int", "Depth layers N_z from the surface to `depth_b`.",
+        default=15, lo=2, hi=1000),
+    Key("depth_b", "depth", "float", "Deepest layer z_max as a multiple of the reference "
+        "semi-width b_ref.", default=0.25, lo=0, hi=10, lo_open=True),
+    Key("spacing", "spacing", "str", "Layer spacing: `quadratic` z_k = z_max (k/(N_z−1))², "
+        "dense near the surface, or `uniform`.", default="quadratic",
+        choices=("quadratic", "uniform")),
 ))
 
 _FILM = Section("film", "Central film thickness of the smooth contact (MODEL.md §2.4).", (
@@ -181,7 +312,8 @@ test roller. Without `radius*_y_mm` the contact is a line contact.
 ))
 
 SECTIONS: tuple[Section, ...] = (_STUDY, _GEAR, _PINION, _WHEEL, _POSITIONS, _DISC, _BODY1,
-                                 _BODY2, _LUBRICANT, _FILM, _HERTZ)
+                                 _SURFACE1, _BODY2, _SURFACE2, _LUBRICANT, _FILM, _HERTZ,
+                                 _WINDOW, _LUBRICATION, _STRESS)
 
 _KEYS_PREAMBLE = """
 Scene files are TOML. Keys carry their unit in their name (`module_mm`, `torque_Nm`, `p0_GPa`);
@@ -201,12 +333,35 @@ def keys_markdown() -> str:
 # the typed scene
 # --------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
+class SurfaceSpec:
+    """How a body's topography is made (SI). ``file`` is resolved against the scene's folder."""
+
+    kind: str = "gaussian"
+    corr_x: float = 30e-6
+    corr_y: float = 300e-6
+    acf: str = "exponential"
+    hurst: float = 0.8
+    long_cutoff: float | None = None
+    short_cutoff: float | None = None
+    file: str | None = None
+    dataset: str | None = None
+    spacing: tuple[float, ...] | None = None
+    height_unit: str = "m"
+    detrend: str = "plane"
+    nan_policy: str = "error"
+    periodise: str = "tukey"
+    rescale: bool = False
+
+
+@dataclass(frozen=True)
 class Body:
     """Material and roughness of one body (SI)."""
 
     E: float
     nu: float
     Rq: float
+    hardness: float = 7e9
+    surface: SurfaceSpec = field(default_factory=SurfaceSpec)
 
 
 @dataclass(frozen=True)
@@ -215,6 +370,7 @@ class Lubricant:
     alpha_pv: float | None
     beta: float | None
     conductivity: float | None
+    tau0: float | None = None
 
 
 @dataclass(frozen=True)
@@ -274,6 +430,45 @@ class DiscSpec:
 
 
 @dataclass(frozen=True)
+class WindowSpec:
+    """The computational window (SI); ``None`` lengths default to 2 b_ref."""
+
+    nx: int = 128
+    ny: int | None = None
+    lx: float | None = None
+    ly: float | None = None
+    steps: int = 20
+    seed: int = 1
+
+
+@dataclass(frozen=True)
+class LubricationSpec:
+    """Settings of the contact model per time step (MODEL.md §4.1), SI."""
+
+    model: str = "auto"
+    auto_lambda: float = 3.0
+    mu_bl: float = 0.11
+    mu_ehl: float = 0.05
+    h_min: float = 0.0
+    p_lim_hardness: float = 0.6
+    prefactor: float | None = None
+    fluid_share: str = "scaled"
+    combine: str = "contact"
+    tol: float = 1e-8
+    max_iter: int = 5000
+    film_tol: float = 1e-4
+
+
+@dataclass(frozen=True)
+class StressSpec:
+    """Depth layers of the stress field (MODEL.md §4.2); ``depth`` in units of b_ref."""
+
+    layers: int = 15
+    depth: float = 0.25
+    spacing: str = "quadratic"
+
+
+@dataclass(frozen=True)
 class Scene:
     """A validated scene, SI units. ``document`` is the TOML as read (for results files)."""
 
@@ -288,6 +483,9 @@ class Scene:
     gear: GearSpec | None = None
     positions: PositionSpec | None = None
     disc: DiscSpec | None = None
+    window: WindowSpec = field(default_factory=WindowSpec)
+    lubrication: LubricationSpec = field(default_factory=LubricationSpec)
+    stress: StressSpec = field(default_factory=StressSpec)
     document: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -330,8 +528,8 @@ def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
         if name not in doc:
             raise SceneError(source, f"missing table [{name}] (material and roughness of "
                                      f"{name}; at least Rq_um)")
-    body1 = Body(**read_section(doc["body1"], _BODY1, source))
-    body2 = Body(**read_section(doc["body2"], _BODY2, source))
+    body1 = _read_body(doc["body1"], _BODY1, _SURFACE1, source)
+    body2 = _read_body(doc["body2"], _BODY2, _SURFACE2, source)
     lub = Lubricant(**read_section(doc.get("lubricant"), _LUBRICANT, source))
     film_v = read_section(doc.get("film"), _FILM, source)
     hertz_v = read_section(doc.get("hertz"), _HERTZ, source)
@@ -349,10 +547,44 @@ def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
         line = disc.is_line
 
     film = _check_film(film_v, lub, line, source)
+    window = WindowSpec(**read_section(doc.get("window"), _WINDOW, source))
+    lubrication = LubricationSpec(**read_section(doc.get("lubrication"), _LUBRICATION, source))
+    stress = StressSpec(**read_section(doc.get("stress"), _STRESS, source))
     name = study["name"] or Path(source).stem
     return Scene(source=source, name=name, description=study["description"], body1=body1,
                  body2=body2, lubricant=lub, film=film, hertz_E_star=hertz_v["E_star"],
-                 gear=gear, positions=positions, disc=disc, document=dict(doc))
+                 gear=gear, positions=positions, disc=disc, window=window,
+                 lubrication=lubrication, stress=stress, document=dict(doc))
+
+
+def _read_body(table: Mapping[str, Any], section: Section, surface: Section,
+               source: str) -> Body:
+    values = read_section(table, section, source)
+    spec = SurfaceSpec(**read_section(table.get("surface"), surface, source))
+    if spec.kind == "file":
+        if spec.file is None:
+            raise SceneError(source, f"missing key '{surface.path}.file': kind = \"file\" reads "
+                                     "a measured height map")
+        path = Path(spec.file)
+        if not path.is_absolute():
+            path = Path(source).parent / path
+        spec = replace(spec, file=str(path))
+    if spec.spacing is not None and len(spec.spacing) != 2:
+        raise SceneError(source, "give two spacings [dx, dy]", key=f"{surface.path}.spacing_um",
+                         value=table["surface"]["spacing_um"])
+    return Body(**values, surface=spec)
+
+
+def check_mixed_inputs(scene: Scene, why: str) -> None:
+    """The mixed model needs the lubricant's rheology, even when the film is given."""
+    lub, source = scene.lubricant, scene.source
+    for attr, key in (("eta0", "eta0_mPas"), ("alpha_pv", "alpha_pv_1_per_GPa"),
+                      ("tau0", "eyring_stress_MPa")):
+        if getattr(lub, attr) is None:
+            raise SceneError(source, f"missing key 'lubricant.{key}': {why}, which needs the "
+                                     "lubricant's viscosity, pressure-viscosity coefficient and "
+                                     "Eyring stress (or set lubrication.model = \"dry\" or "
+                                     "\"smooth\")")
 
 
 _GEOMETRY_KEYS = {

@@ -291,4 +291,4 @@ def test_cli_unwritable_csv_is_a_plain_error(tmp_path):
     assert out.returncode == 2 and "Traceback" not in out.stderr
     assert out.stderr.startswith(f"micropit: error: cannot write --csv {tmp_path}: ")
     out = run_cli("check-env", "--expect-ranks", "0")
-    assert out.returncode == 2 and "expected a positive number of ranks" in out.stderr
+    assert out.returncode == 2 and "expected a positive whole number" in out.stderr

@@ -1,0 +1,253 @@
+"""One load cycle at one contact position: the travelling window and its time steps (MODEL §4).
+
+A load cycle is one passage of the surfaces through the contact. The window (a periodic patch
+of L_x × L_y, default 2 b_ref square) travels with ū from the inlet x_c = −b to the outlet
+x_c = +b in m steps: t_j = (j + ½) t_f/m, t_f = 2b/ū, x_c(t_j) = −b + ū t_j, mean pressure
+p̄_j = p_H(x_c(t_j)); surface i is shifted by (u_i − ū) t_j relative to the window (exact
+Fourier shift). This module builds the window and surfaces of a position and solves one time
+step: contact (:mod:`micropit_hpc.lubrication`) and stresses (:mod:`micropit_hpc.mechanics`)
+in each body's material frame.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from micropit_hpc.conditions import ContactConditions, ContactStudy
+from micropit_hpc.errors import MicropitError, SceneError
+from micropit_hpc.hertz import line_contact
+from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
+from micropit_hpc.lubrication.mixed import MixedLubrication, MixedParameters
+from micropit_hpc.lubrication.rheology import calibrated_prefactor
+from micropit_hpc.mechanics.halfspace import HalfSpaceStress, depth_layers
+from micropit_hpc.mechanics.hertz_field import EllipticalContactField, line_contact_stress
+from micropit_hpc.scene import Body, Scene, check_mixed_inputs
+from micropit_hpc.spectral import Grid, fourier_shift, rfft_plan
+from micropit_hpc.surfaces import (
+    Topography,
+    TopographyError,
+    gaussian_surface,
+    read_topography,
+    self_affine_surface,
+)
+
+LEVELS = ("smooth", "dry", "mixed")
+
+
+def reference_half_width(study: ContactStudy) -> float:
+    """b_ref: the Hertz semi-width at the pitch point of a gear pair (same window at every
+    position, as in the paper), or of the first contact of a disc rig."""
+    scene = study.scene
+    if study.mesh is None:
+        return study.conditions[0].b
+    mesh, gear = study.mesh, scene.gear
+    rho_p = mesh.C
+    X = float(mesh.load_share(np.array([rho_p]), gear.load_sharing, gear.accuracy_grade)[0])
+    w = X * gear.torque / (gear.geometry.base_radius1 * gear.geometry.facewidth)
+    b, _ = line_contact(w, float(mesh.reduced_radius(np.array([rho_p]))[0]), study.E_star)
+    return float(b)
+
+
+def window_grid(scene: Scene, b_ref: float) -> Grid:
+    """The window grid of a scene ([window] keys; lengths default to 2 b_ref)."""
+    w = scene.window
+    lx = w.lx if w.lx is not None else 2.0 * b_ref
+    ly = w.ly if w.ly is not None else lx
+    return Grid(w.nx, w.ny if w.ny is not None else w.nx, lx, ly)
+
+
+def body_surface(scene: Scene, body: int, grid: Grid) -> Topography:
+    """Topography of body 1 or 2 on the window grid (MODEL.md §3), from its [bodyN.surface]."""
+    b: Body = scene.body1 if body == 1 else scene.body2
+    spec = b.surface
+    key = f"body{body}.surface"
+    seed, spawn = scene.window.seed, (body,)
+    try:
+        if spec.kind == "smooth" or b.Rq == 0.0:
+            return Topography(np.zeros(grid.shape), grid.dx, grid.dy, "smooth")
+        if spec.kind == "gaussian":
+            return gaussian_surface(grid, b.Rq, spec.corr_x, spec.corr_y, seed, spec.acf, spawn)
+        if spec.kind == "self_affine":
+            long_c = spec.long_cutoff if spec.long_cutoff is not None else max(grid.lx, grid.ly)
+            short_c = spec.short_cutoff if spec.short_cutoff is not None else 4 * max(grid.dx,
+                                                                                      grid.dy)
+            return self_affine_surface(grid, b.Rq, spec.hurst, long_c, short_c, seed, spawn)
+        topo = read_topography(spec.file, dataset=spec.dataset, spacing=spec.spacing,
+                               height_unit=spec.height_unit, nan_policy=spec.nan_policy)
+        topo = topo.detrended(spec.detrend).periodised(spec.periodise).resampled(grid)
+    except TopographyError as e:
+        raise SceneError(scene.source, f"{key}: {e}") from None
+    if spec.rescale:
+        return topo.scaled_to_rq(b.Rq)
+    if abs(topo.rq - b.Rq) > 0.05 * b.Rq:
+        raise SceneError(scene.source, f"the measured map has R_q = {topo.rq * 1e6:.4g} µm on "
+                                       "the window, more than 5 % from the body's R_q; set "
+                                       f"body{body}.Rq_um to it or {key}.rescale = true",
+                         key=f"body{body}.Rq_um", value=b.Rq * 1e6)
+    return topo
+
+
+def choose_level(scene: Scene, c: ContactConditions, rough: bool) -> str:
+    """The contact level of a position: the scene's, or for ``auto`` smooth when the surfaces
+    are smooth or Λ ≥ auto_lambda (full film) and mixed otherwise (MODEL.md §0, §4.1)."""
+    model = scene.lubrication.model
+    if model == "auto":
+        model = "smooth" if (not rough or c.Lambda >= scene.lubrication.auto_lambda) else "mixed"
+    if model == "mixed":
+        check_mixed_inputs(scene, 'lubrication.model = "mixed"' if scene.lubrication.model ==
+                           "mixed" else f"Λ = {c.Lambda:.3g} < lubrication.auto_lambda makes "
+                           '"auto" choose "mixed"')
+    return model
+
+
+@dataclass(frozen=True)
+class StepFields:
+    """Contact at one time step (SI, window frame). ``traction1``/``traction2`` are the
+    friction tractions on each body along +x, q_i = μ p sign(u_j − u_i) (MODEL.md §1)."""
+
+    position: int
+    step: int
+    t: float
+    x_c: float
+    p_mean: float
+    level: str
+    pressure: np.ndarray
+    clearance: np.ndarray
+    solid: np.ndarray
+    friction: np.ndarray
+    phi: float
+    iterations: int
+    traction1: np.ndarray
+    traction2: np.ndarray
+
+    @property
+    def mu_mean(self) -> float:
+        """Pressure-weighted mean friction coefficient μ̄ (the macro field's)."""
+        return float((self.friction * self.pressure).sum() / self.pressure.sum())
+
+
+class PositionCycle:
+    """The window, surfaces and solvers of one position of a study (MODEL.md §4)."""
+
+    def __init__(self, study: ContactStudy, position: int,
+                 surfaces: tuple[Topography, Topography] | None = None):
+        scene = study.scene
+        if not 1 <= position <= len(study.conditions):
+            raise MicropitError(f"{scene.source}: position {position} does not exist (the "
+                                f"scene has positions 1 to {len(study.conditions)})")
+        self.study, self.scene, self.position = study, scene, position
+        c = self.cond = study.conditions[position - 1]
+        self.b_ref = reference_half_width(study)
+        self.grid = g = window_grid(scene, self.b_ref)
+        if surfaces is None:
+            surfaces = (body_surface(scene, 1, g), body_surface(scene, 2, g))
+        self.surfaces = surfaces
+        fft = self._fft = rfft_plan(g.shape)
+        self.rough_spectra = tuple(fft.forward(-s.heights) for s in surfaces)
+        rough = any(s.rq > 0 for s in surfaces)
+        self.level = choose_level(scene, c, rough)
+        self.steps = scene.window.steps
+        self.t_f = 2.0 * c.b / c.u_mean
+        lub = scene.lubrication
+        self.p_lim = lub.p_lim_hardness * min(scene.body1.hardness, scene.body2.hardness)
+        self.half_spaces = ElasticHalfSpaces(g, study.E_prime)
+        self.mixed = None
+        if self.level == "mixed":
+            lubr = scene.lubricant
+            prm = MixedParameters(
+                eta0=lubr.eta0, alpha=lubr.alpha_pv, tau0=lubr.tau0, p_lim=self.p_lim,
+                prefactor=lub.prefactor if lub.prefactor is not None else calibrated_prefactor(),
+                fluid_share=lub.fluid_share, combine=lub.combine, tol=lub.tol,
+                max_iter=lub.max_iter, film_tol=lub.film_tol)
+            self.mixed = MixedLubrication(
+                g, geometry="line" if c.geometry == "line" else "elliptical", load=c.load,
+                R=c.R, b=c.b, u1=c.u1, u2=c.u2, h_mean=c.hc, E_prime=study.E_prime, params=prm)
+        st = scene.stress
+        self.z = depth_layers(st.layers, st.depth * self.b_ref, st.spacing)
+        self._micro = {}
+        self._macro_ellipse = None
+
+    # ---- kinematics --------------------------------------------------------------------------
+    def time(self, step: int) -> float:
+        """t_j = (j + ½) t_f/m, steps counted from 0."""
+        if not 0 <= step < self.steps:
+            raise MicropitError(f"step {step} does not exist (the cycle has steps 0 to "
+                                f"{self.steps - 1}; window.steps = {self.steps})")
+        return (step + 0.5) * self.t_f / self.steps
+
+    def centre(self, t: float) -> float:
+        """x_c(t) = −b + ū t."""
+        return -self.cond.b + self.cond.u_mean * t
+
+    def mean_pressure(self, x: float) -> float:
+        """p_H(x) = p0 √(1 − x²/b²) along the rolling axis of the Hertz contact."""
+        c = self.cond
+        return c.p0 * math.sqrt(max(0.0, 1.0 - (x / c.b) ** 2))
+
+    def slip(self, body: int, t: float) -> float:
+        """Shift of surface ``body`` relative to the window, (u_i − ū) t."""
+        u = self.cond.u1 if body == 1 else self.cond.u2
+        return (u - self.cond.u_mean) * t
+
+    # ---- one step ----------------------------------------------------------------------------
+    def solve_step(self, step: int, p_init: np.ndarray | None = None) -> StepFields:
+        """Contact at time step ``step`` (MODEL.md §4.1)."""
+        g, c, lub = self.grid, self.cond, self.scene.lubrication
+        t = self.time(step)
+        x_c = self.centre(t)
+        p_mean = self.mean_pressure(x_c)
+        r_now = tuple(fourier_shift(r, g, self.slip(i + 1, t))
+                      for i, r in enumerate(self.rough_spectra))
+        phi, iters = 0.0, 0
+        if self.level == "smooth" or p_mean == 0.0:
+            pressure = np.full(g.shape, p_mean)
+            clearance = np.full(g.shape, c.hc)
+        elif self.level == "dry":
+            gap0 = self._fft.inverse(r_now[0] + r_now[1])
+            sol = solve_dry_contact(gap0, self.half_spaces, p_mean, p_lim=self.p_lim,
+                                    tol=lub.tol, max_iter=lub.max_iter, p_init=p_init)
+            pressure, clearance, phi, iters = sol.pressure, sol.gap, 1.0, sol.iterations
+        else:
+            sol = self.mixed.solve(r_now, self.rough_spectra, p_mean, t, p_init=p_init)
+            pressure, clearance, phi, iters = sol.pressure, sol.clearance, sol.phi, sol.iterations
+        solid = clearance <= lub.h_min if self.level != "smooth" else np.zeros(g.shape, bool)
+        friction = np.where(solid, lub.mu_bl, lub.mu_ehl)
+        q = friction * pressure
+        s1 = math.copysign(1.0, c.u2 - c.u1) if c.u2 != c.u1 else 0.0
+        return StepFields(position=self.position, step=step, t=t, x_c=x_c, p_mean=p_mean,
+                          level=self.level, pressure=pressure, clearance=clearance,
+                          solid=solid, friction=friction, phi=phi, iterations=iters,
+                          traction1=s1 * q, traction2=-s1 * q)
+
+    # ---- stresses ----------------------------------------------------------------------------
+    def stresses(self, fields: StepFields, body: int) -> np.ndarray:
+        """σ (Voigt xx, yy, zz, yz, xz, xy; shape (6, N_z, nx, ny)) in the material frame of
+        ``body`` at the step of ``fields`` (MODEL.md §4.2): the micro field of the pressure and
+        traction fluctuations (Fourier kernels, App. A.1) plus the macro Hertz field with the
+        mean traction μ̄ p_H at each material point's actual position x_c + x + (u_i − ū)t."""
+        g, c = self.grid, self.cond
+        b_body = self.scene.body1 if body == 1 else self.scene.body2
+        micro = self._micro.get(body)
+        if micro is None:
+            micro = self._micro[body] = HalfSpaceStress(g, self.z, b_body.nu)
+        q = fields.traction1 if body == 1 else fields.traction2
+        shift = -self.slip(body, fields.t)          # window frame -> material frame
+        fft = self._fft
+        P_hat = fourier_shift(fft.forward(-fields.pressure), g, shift)
+        T_hat = fourier_shift(fft.forward(-q), g, shift)
+        sigma = micro.stresses(P_hat, T_hat)
+        mu_signed = float(q.sum() / fields.pressure.sum()) if fields.pressure.any() else 0.0
+        x = (fields.x_c + g.x - shift)[None, :, None]
+        z = self.z[:, None, None]
+        if c.geometry == "line":
+            macro = line_contact_stress(x, z, c.b, c.p0, mu_signed, b_body.nu)
+            sigma += macro
+        else:
+            if self._macro_ellipse is None or self._macro_ellipse[0] != body:
+                self._macro_ellipse = (body, EllipticalContactField(c.b, c.a, c.p0, b_body.nu))
+            field = self._macro_ellipse[1]
+            sigma += field.stress(x, g.y[None, None, :], z, mu_signed)
+        return sigma
