@@ -46,6 +46,8 @@ from micropit_hpc.lubrication import rheology
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
 from micropit_hpc.spectral import Grid, rfft_plan
 
+CALIBRATED_PREFACTOR = rheology.calibrated_prefactor()
+
 
 @dataclass(frozen=True)
 class MixedParameters:
@@ -56,7 +58,7 @@ class MixedParameters:
     alpha: float
     tau0: float
     p_lim: float = math.inf
-    prefactor: float = rheology.calibrated_prefactor()
+    prefactor: float = CALIBRATED_PREFACTOR
     fit_c1: float = 0.15
     fit_c2: float = 0.015
     fluid_share: str = "scaled"
@@ -269,25 +271,19 @@ class MixedLubrication:
 
 
 def restore_mean(p: np.ndarray, p_mean: float, p_lim: float = math.inf) -> np.ndarray:
-    """clip(p + c, 0, p_lim) with the constant c chosen so the mean is p̄ (monotone in c;
-    bisection to 1e-13 relative)."""
+    """clip(p + c, 0, p_lim) with the constant c chosen so the mean is p̄ (the mean is
+    continuous and non-decreasing in c: bisection down to the last representable c)."""
     if p_mean >= p_lim:
         raise MicropitError(f"mean pressure {p_mean / 1e9:.4g} GPa ≥ p_lim "
                             f"{p_lim / 1e9:.4g} GPa: the window cannot carry it")
-    lo, hi = p_mean - p.max(), p_mean - p.min() + p_mean
-    hi = max(hi, lo)
+    lo, hi = p_mean - p.max(), 2 * p_mean - p.min()
     for _ in range(200):
         c = 0.5 * (lo + hi)
-        m = np.clip(p + c, 0.0, p_lim).mean()
-        if m > p_mean:
+        if not lo < c < hi:
+            break
+        if np.clip(p + c, 0.0, p_lim).mean() > p_mean:
             hi = c
         else:
             lo = c
-        if hi - lo <= 1e-13 * max(abs(c), p_mean):
-            break
-    q = np.clip(p + 0.5 * (lo + hi), 0.0, p_lim)
-    # remove the last round-off in the mean on the unclipped points
-    free = (q > 0) & (q < p_lim)
-    if free.any():
-        q[free] += (p_mean - q.mean()) * q.size / np.count_nonzero(free)
-    return q
+    q_lo, q_hi = np.clip(p + lo, 0.0, p_lim), np.clip(p + hi, 0.0, p_lim)
+    return q_lo if abs(q_lo.mean() - p_mean) <= abs(q_hi.mean() - p_mean) else q_hi

@@ -1,0 +1,150 @@
+"""The travelling window of one position, one time step end to end, and `micropit snapshot`."""
+
+from __future__ import annotations
+
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from conftest import ROOT, SCENES
+
+from micropit_hpc.conditions import contact_study
+from micropit_hpc.cycle import PositionCycle, reference_half_width
+from micropit_hpc.errors import MicropitError, SceneError
+from micropit_hpc.mechanics.hertz_field import line_contact_stress
+from micropit_hpc.scene import load_scene
+
+SMALL = """
+[window]
+n = 32
+steps = 4
+[stress]
+layers = 4
+"""
+
+
+def _scene(tmp_path, base="gear_z23", extra=SMALL, drop=()):
+    text = (SCENES / f"{base}.toml").read_text()
+    for line in drop:
+        text = text.replace(line, "")
+    path = tmp_path / f"{base}_small.toml"
+    path.write_text(text + extra)
+    return path
+
+
+def test_window_kinematics(tmp_path):
+    """t_j = (j+½)t_f/m, x_c from −b to +b, relative slip over the transit 2b|S| (MODEL §4)."""
+    study = contact_study(load_scene(_scene(tmp_path)))
+    cyc = PositionCycle(study, 3)
+    c = cyc.cond
+    m = cyc.steps
+    assert cyc.centre(cyc.time(0)) == pytest.approx(-c.b + c.b / m, rel=1e-12)
+    assert cyc.centre(cyc.time(m - 1)) == pytest.approx(c.b - c.b / m, rel=1e-12)
+    slip = cyc.slip(1, cyc.t_f) - cyc.slip(2, cyc.t_f)
+    assert abs(slip) == pytest.approx(2 * c.b * abs(c.S), rel=1e-12)
+    assert cyc.grid.lx == pytest.approx(2 * reference_half_width(study), rel=1e-12)
+    assert reference_half_width(study) == pytest.approx(study.conditions[5].b, rel=2e-3)
+    with pytest.raises(MicropitError, match="steps 0 to 3"):
+        cyc.time(4)
+    with pytest.raises(MicropitError, match="positions 1 to 11"):
+        PositionCycle(study, 12)
+
+
+def test_mixed_step_balances_the_load_and_stresses_match_the_surface(tmp_path):
+    """One mixed step of the default gear scene: the mean pressure is p̄_j, the pressure is
+    within [0, p_lim], and the assembled stress of body 1 at z = 0 is −(p_H(x_c + x) + p − p̄)
+    in the body's material frame: the micro and macro parts and the frame shift fit."""
+    study = contact_study(load_scene(_scene(tmp_path)))
+    cyc = PositionCycle(study, 3)
+    assert cyc.level == "mixed"
+    f = cyc.solve_step(1)
+    assert f.pressure.mean() == pytest.approx(f.p_mean, rel=1e-10)
+    assert 0.0 <= f.pressure.min() and f.pressure.max() <= cyc.p_lim * (1 + 1e-12)
+    assert 0.0 <= f.phi <= 1.0
+    assert np.array_equal(f.friction == 0.11, f.solid)
+    # traction on body 1 points towards body 2's relative velocity: S < 0 ⇒ u2 > u1 ⇒ +x
+    assert cyc.cond.S < 0 and f.traction1.sum() > 0 and f.traction2.sum() < 0
+    sigma = cyc.stresses(f, 1)
+    assert sigma.shape == (6, 4, 32, 32) and np.isfinite(sigma).all()
+    g = cyc.grid
+    shift_cells = cyc.slip(1, f.t) / g.dx
+    k = np.fft.fftfreq(g.nx) * g.nx
+    # the window-frame pressure fluctuation moved into body 1's frame by the exact shift
+    dp = np.fft.ifft(np.fft.fft(f.pressure - f.p_mean, axis=0)
+                     * np.exp(2j * np.pi * k * shift_cells / g.nx)[:, None], axis=0).real
+    x_actual = f.x_c + g.x + cyc.slip(1, f.t)
+    macro = line_contact_stress(x_actual[:, None], 0.0 * x_actual[:, None], cyc.cond.b,
+                                cyc.cond.p0, 0.0, 0.3)[2]
+    expected = macro - dp
+    assert np.abs(sigma[2, 0] - expected).max() < 1e-6 * cyc.cond.p0
+
+
+def test_thick_film_is_smooth_and_dry_level_is_a_contact(tmp_path):
+    path = _scene(tmp_path, extra=SMALL + "\n[lubrication]\nmodel = \"dry\"\n")
+    cyc = PositionCycle(contact_study(load_scene(path)), 5)
+    f = cyc.solve_step(2)
+    assert f.level == "dry" and f.phi == 1.0 and f.solid.any()
+    assert f.pressure.mean() == pytest.approx(f.p_mean, rel=1e-10)
+    thick = _scene(tmp_path, extra=SMALL + "\n[lubrication]\nauto_lambda = 0.1\n")
+    cyc = PositionCycle(contact_study(load_scene(thick)), 5)
+    f = cyc.solve_step(2)
+    assert f.level == "smooth" and not f.solid.any() and np.ptp(f.pressure) == 0.0
+
+
+def test_mixed_needs_the_eyring_stress(tmp_path):
+    path = _scene(tmp_path, drop=("eyring_stress_MPa = 9.0",))
+    with pytest.raises(SceneError, match=r"missing key 'lubricant.eyring_stress_MPa'.*auto"):
+        PositionCycle(contact_study(load_scene(path)), 3)
+
+
+def test_same_seed_same_step_other_seed_differs(tmp_path):
+    study = contact_study(load_scene(_scene(tmp_path)))
+    a = PositionCycle(study, 4).solve_step(1)
+    b = PositionCycle(study, 4).solve_step(1)
+    assert np.array_equal(a.pressure, b.pressure)
+    other = _scene(tmp_path, extra=SMALL.replace("steps = 4", "steps = 4\nseed = 2"))
+    c = PositionCycle(contact_study(load_scene(other)), 4).solve_step(1)
+    assert not np.array_equal(a.pressure, c.pressure)
+
+
+def _micropit(*args):
+    return subprocess.run([sys.executable, "-m", "micropit_hpc", *args], cwd=ROOT,
+                          capture_output=True, text=True, timeout=240)
+
+
+def test_snapshot_command_writes_hdf5_and_maps(tmp_path):
+    h5py = pytest.importorskip("h5py")
+    out = _micropit("snapshot", str(_scene(tmp_path)), "--position", "3", "--step", "2",
+                    "--out", str(tmp_path / "snap"))
+    assert out.returncode == 0, out.stderr
+    assert "wrote" in out.stdout and "solid-load fraction" in out.stdout
+    with h5py.File(tmp_path / "snap" / "snapshot.h5", "r") as f:
+        for name in ("pressure", "clearance", "solid_contact", "traction_body1",
+                     "traction_body2", "stress_body1", "stress_body2", "z"):
+            assert name in f
+        assert f["stress_body1"].shape == (6, 4, 32, 32)
+        assert f["stress_body1"].attrs["components"] == "xx,yy,zz,yz,xz,xy"
+        assert f.attrs["level"] == "mixed" and f.attrs["step"] == 1
+        assert f["pressure"][()].mean() == pytest.approx(f.attrs["p_mean_Pa"], rel=1e-10)
+    png = (tmp_path / "snap" / "snapshot.png").read_bytes()
+    assert png[:8] == b"\x89PNG\r\n\x1a\n" and len(png) > 10000
+    assert not list((tmp_path / "snap").glob("*.tmp*"))
+
+
+@pytest.mark.parametrize("args,message", [
+    (("--position", "12"), "positions 1 to 11"),
+    (("--step", "9"), "steps 1 to 4"),
+    (("--step", "0"), "positive whole number"),
+])
+def test_snapshot_errors_are_one_line(tmp_path, args, message):
+    out = _micropit("snapshot", str(_scene(tmp_path)), *args, "--out", str(tmp_path / "s"))
+    assert out.returncode == 2 and message in out.stderr
+    assert "Traceback" not in out.stderr
+
+
+def test_reference_width_of_a_disc_rig():
+    study = contact_study(load_scene(SCENES / "paper_mpr.toml"))
+    assert reference_half_width(study) == pytest.approx(study.conditions[0].b)
+    assert math.isfinite(study.conditions[0].b)
