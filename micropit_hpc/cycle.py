@@ -167,8 +167,8 @@ class PositionCycle:
                 R=c.R, b=c.b, u1=c.u1, u2=c.u2, h_mean=c.hc, E_prime=study.E_prime, params=prm)
         st = scene.stress
         self.z = depth_layers(st.layers, st.depth * self.b_ref, st.spacing)
-        self._micro = {}
-        self._macro_ellipse = None
+        self._micro: dict[int, HalfSpaceStress] = {}
+        self._macro_ellipse: dict[int, EllipticalContactField] = {}
 
     # ---- kinematics --------------------------------------------------------------------------
     def time(self, step: int) -> float:
@@ -246,8 +246,9 @@ class PositionCycle:
             macro = line_contact_stress(x, z, c.b, c.p0, mu_signed, b_body.nu)
             sigma += macro
         else:
-            if self._macro_ellipse is None or self._macro_ellipse[0] != body:
-                self._macro_ellipse = (body, EllipticalContactField(c.b, c.a, c.p0, b_body.nu))
-            field = self._macro_ellipse[1]
+            field = self._macro_ellipse.get(body)
+            if field is None:
+                field = self._macro_ellipse[body] = EllipticalContactField(c.b, c.a, c.p0,
+                                                                           b_body.nu)
             sigma += field.stress(x, g.y[None, None, :], z, mu_signed)
         return sigma
