@@ -86,7 +86,8 @@ def body_surface(scene: Scene, body: int, grid: Grid) -> Topography:
         raise SceneError(scene.source, f"the measured map has R_q = {topo.rq * 1e6:.4g} µm on "
                                        "the window, more than 5 % from the body's R_q; set "
                                        f"body{body}.Rq_um to it or {key}.rescale = true",
-                         key=f"body{body}.Rq_um", value=b.Rq * 1e6)
+                         key=f"body{body}.Rq_um",
+                         value=scene.document.get(f"body{body}", {}).get("Rq_um", b.Rq * 1e6))
     return topo
 
 

@@ -25,11 +25,11 @@ layers = 4
 """
 
 
-def _scene(tmp_path, base="gear_z23", extra=SMALL, drop=()):
+def _scene(tmp_path, base="gear_z23", extra=SMALL, drop=(), name="small"):
     text = (SCENES / f"{base}.toml").read_text()
     for line in drop:
         text = text.replace(line, "")
-    path = tmp_path / f"{base}_small.toml"
+    path = tmp_path / f"{base}_{name}.toml"
     path.write_text(text + extra)
     return path
 
@@ -148,3 +148,31 @@ def test_reference_width_of_a_disc_rig():
     study = contact_study(load_scene(SCENES / "paper_mpr.toml"))
     assert reference_half_width(study) == pytest.approx(study.conditions[0].b)
     assert math.isfinite(study.conditions[0].b)
+
+
+def test_measured_surface_from_a_scene(tmp_path):
+    """kind = "file": read, detrended, periodised, resampled to the window; a missing file and
+    an R_q that disagrees with the body's are clear errors naming the key."""
+    from micropit_hpc.cycle import body_surface
+    from micropit_hpc.spectral import Grid
+    from micropit_hpc.surfaces import gaussian_surface
+
+    g = Grid(64, 64, 8e-4, 8e-4)
+    z = gaussian_surface(g, 2.892e-6, 30e-6, 300e-6, seed=5).heights
+    np.save(tmp_path / "flank.npy", z)
+    surf = ('\n[body1.surface]\nkind = "file"\nfile = "flank.npy"\nspacing_um = [12.5, 12.5]\n'
+            'periodise = "none"\ndetrend = "mean"\n')
+    window = SMALL.replace("n = 32", "n = 64\nlength_x_um = 800.0\nlength_y_um = 800.0")
+    path = _scene(tmp_path, extra=window + surf)
+    study = contact_study(load_scene(path))
+    cyc = PositionCycle(study, 3)
+    topo = body_surface(study.scene, 1, cyc.grid)
+    assert "flank.npy" in topo.provenance
+    assert np.abs(topo.heights - z).max() < 1e-12 * z.std()    # same grid: the map itself
+    missing = _scene(tmp_path, extra=window + surf.replace("flank.npy", "nope.npy"),
+                     name="missing")
+    with pytest.raises(SceneError, match=r"body1\.surface: .*nope\.npy.*not found"):
+        PositionCycle(contact_study(load_scene(missing)), 3)
+    np.save(tmp_path / "flank.npy", 3 * z)
+    with pytest.raises(SceneError, match=r"body1\.Rq_um = 2\.892.*rescale = true"):
+        PositionCycle(contact_study(load_scene(path)), 3)
