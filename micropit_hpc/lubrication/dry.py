@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -73,12 +74,12 @@ class ElasticHalfSpaces:
         fft = self._fft
         return fft.inverse(fft.forward(p) * self.compliance)
 
-    def pressure(self, u: np.ndarray) -> np.ndarray:
-        """Inverse: the zero-mean pressure whose displacement is the fluctuation of u [Pa]."""
-        fft = self._fft
+    @cached_property
+    def stiffness(self) -> np.ndarray:
+        """E'κ/4 per mode (0 at the mean): p̂ = stiffness · û, the inverse response."""
         stiff = np.zeros_like(self.compliance)
         np.divide(1.0, self.compliance, out=stiff, where=self.compliance > 0)
-        return fft.inverse(fft.forward(u) * stiff)
+        return stiff
 
 
 def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float,

@@ -223,9 +223,8 @@ class MixedLubrication:
             c_rho = float(rheology.density_correction(phi * p_mean))
             return float(np.maximum(sol.gap, 0.0).mean()) - c_rho * h_bar, sol
 
-        f0, sol0 = film(0.0)
+        f0, _ = film(0.0)
         if f0 <= 0.0:  # full film: the fluid carries everything, surfaces apart
-            phi = 0.0
             H_lub = fft.inverse(H_t)
             clearance = H_lub - H_lub.mean() + h_bar
             return self._finish(H_t, r_tot, clearance, 0.0, p_mean, state["iters"], h_bar)
@@ -261,11 +260,9 @@ class MixedLubrication:
     def _finish(self, H, r_tot, clearance, phi, p_mean, iters, film_mean) -> MixedSolution:
         """Step 4: pressure from the total displacement H − r through the inverse frequency
         response, clipped to [0, p_lim], mean restored to p̄."""
-        stiff = np.zeros_like(self.hs.compliance)
-        np.divide(1.0, self.hs.compliance, out=stiff, where=self.hs.compliance > 0)
         dp = H - r_tot
         dp[0, 0] = 0.0
-        p = self._fft.inverse(dp * stiff)
+        p = self._fft.inverse(dp * self.hs.stiffness)
         p = restore_mean(p, p_mean, self.params.p_lim)
         return MixedSolution(p, clearance, float(phi), int(iters), float(film_mean))
 
