@@ -3,8 +3,9 @@
 #   bash jobs/local.sh [SCENE]        (default scenes/gear_z23.toml; NP=2 by default)
 # Environment: NP (ranks), OUT_DIR (default runs/<scene name>), MICROPIT_PYTHON (interpreter;
 # default .venv/bin/python from scripts/setup.sh).
-# For now the main job computes the contact conditions along the flank and plots them; the
-# life simulation will take its place when it lands.
+# For now the main job computes the contact conditions along the flank and plots them, then
+# one time step of the rough contact at position POSITION (default 3); the life simulation will
+# take its place when it lands.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
@@ -21,4 +22,8 @@ mpirun -n "$np" "$py" -m micropit_hpc check-env --expect-ranks "$np"
 echo "== micropit contact $scene on $np ranks"
 mpirun -n "$np" "$py" -m micropit_hpc contact "$scene" --csv "$out/contact.csv"
 "$py" postprocess/plot_contact.py "$scene" --out "$out/contact.png"
-echo "== done: contact table $out/contact.csv, plot $out/contact.png"
+pos=${POSITION:-3}
+echo "== micropit snapshot $scene, position $pos (one time step of the rough contact)"
+"$py" -m micropit_hpc snapshot "$scene" --position "$pos" --out "$out/snapshot"
+echo "== done: contact table $out/contact.csv, plot $out/contact.png, rough contact" \
+     "$out/snapshot/snapshot.h5 and maps $out/snapshot/snapshot.png"
