@@ -167,12 +167,14 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     if not p.any():
         p[...] = P
     plastic = p >= p_lim
-    used, error = 0, math.inf
+    used, error, settled = 0, math.inf, False
     N = g0.size
     for _ in range(200):
+        if used >= max_iter:
+            break
         n_pl = np.count_nonzero(plastic)
         P_el = P - p_lim * n_pl / N if n_pl else P
-        if P_el <= 0.0:   # too many points at the cap: release the ones with the widest gaps
+        if P_el <= 0.0:   # the cap alone would carry more than the load: start the set anew
             plastic[...] = False
             n_pl, P_el = 0, P
         g_fixed = g0
@@ -190,12 +192,12 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         grow = p > p_lim
         release = plastic & (g > 0.0)
         if not grow.any() and not release.any():
-            p = p_total
+            p, settled = p_total, True
             break
         plastic = (plastic & ~release) | grow
         p = p_total
         np.minimum(p, p_lim, out=p)
-    if error > tol or used >= max_iter:
+    if not settled:
         raise ContactError(
             f"dry contact did not converge: relative residual {error:.3g} > tolerance {tol:.3g} "
             f"after {used} iterations (raise lubrication.max_iterations or the tolerance; "

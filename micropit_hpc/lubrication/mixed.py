@@ -209,17 +209,14 @@ class MixedLubrication:
                 return r_tot + (1.0 - phi) * (H_t - r_tot)
             return H_t
 
-        def dry(phi):
-            H_lub = fft.inverse(clearance_spectrum(phi))
-            sol = solve_dry_contact(H_lub, self.hs, phi * p_mean, p_lim=prm.p_lim, tol=prm.tol,
-                                    max_iter=prm.max_iter, p_init=state["p"])
+        def film(phi):
+            """Mean clearance minus the flow balance's c_ρ h̄, and the dry solution at φ."""
+            sol = solve_dry_contact(fft.inverse(clearance_spectrum(phi)), self.hs, phi * p_mean,
+                                    p_lim=prm.p_lim, tol=prm.tol, max_iter=prm.max_iter,
+                                    p_init=state["p"])
             state["iters"] += sol.iterations
             if sol.pressure.any():
                 state["p"] = sol.pressure
-            return H_lub, sol
-
-        def film(phi):
-            _, sol = dry(phi)
             c_rho = float(rheology.density_correction(phi * p_mean))
             return float(np.maximum(sol.gap, 0.0).mean()) - c_rho * h_bar, sol
 
