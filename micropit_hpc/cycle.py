@@ -170,6 +170,7 @@ class PositionCycle:
         self.z = depth_layers(st.layers, st.depth * self.b_ref, st.spacing)
         self._micro: dict[int, HalfSpaceStress] = {}
         self._macro_ellipse: dict[int, EllipticalContactField] = {}
+        self._traction_spectra: tuple = (None, None, None)
 
     # ---- kinematics --------------------------------------------------------------------------
     def time(self, step: int) -> float:
@@ -236,10 +237,13 @@ class PositionCycle:
             micro = self._micro[body] = HalfSpaceStress(g, self.z, b_body.nu)
         q = fields.traction1 if body == 1 else fields.traction2
         shift = -self.slip(body, fields.t)          # window frame -> material frame
-        fft = self._fft
-        P_hat = fourier_shift(fft.forward(-fields.pressure), g, shift)
-        T_hat = fourier_shift(fft.forward(-q), g, shift)
-        sigma = micro.stresses(P_hat, T_hat)
+        if self._traction_spectra[0] is not fields:   # both bodies share p̂ and ±q̂
+            fft = self._fft
+            self._traction_spectra = (fields, fft.forward(-fields.pressure),
+                                      fft.forward(-fields.traction1))
+        _, P_hat, T1_hat = self._traction_spectra
+        T_hat = T1_hat if body == 1 else -T1_hat
+        sigma = micro.stresses(fourier_shift(P_hat, g, shift), fourier_shift(T_hat, g, shift))
         mu_signed = float(q.sum() / fields.pressure.sum()) if fields.pressure.any() else 0.0
         x = (fields.x_c + g.x - shift)[None, :, None]
         z = self.z[:, None, None]
