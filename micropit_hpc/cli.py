@@ -85,6 +85,62 @@ def _cmd_snapshot(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_run(args: argparse.Namespace) -> int:
+    import sys
+    import time
+    from pathlib import Path
+
+    from micropit_hpc.io.results import write_results, write_summary
+    from micropit_hpc.parallel import world
+    from micropit_hpc.progress import NullProgress, Progress
+    from micropit_hpc.scene import load_scene
+    from micropit_hpc.study import SUMMARY_COLUMNS, Study, summary_rows
+
+    comm = world()
+    rank0 = comm.rank == 0
+    scene = load_scene(args.scene)
+    out = Path(args.out)
+    if rank0:
+        try:
+            out.mkdir(parents=True, exist_ok=True)
+        except OSError as e:
+            raise MicropitError(f"cannot create --out {out}: {e.strerror or e}") from None
+
+    def log(msg: str) -> None:
+        print(f"# {msg}", file=sys.stderr, flush=True)
+
+    t0 = time.perf_counter()
+    study = Study(scene, comm, ranks_per_item=args.ranks_per_item, positions=args.position,
+                  log=log)
+    if rank0:
+        log(f"{scene.name}: {len(study.items)} work items, {study.blocks} blocks of "
+            f"{scene.life.block / 1e6:g} M cycles (life {scene.life.cycles / 1e6:g} M), "
+            f"{comm.size} ranks in {study.group.count} groups")
+    study.setup()
+    progress = (Progress(study.blocks, "blocks") if rank0 else NullProgress(study.blocks,
+                                                                             "blocks"))
+    records: dict[int, list] = {it.id: [] for it in study.items}
+    for k in range(1, study.blocks + 1):
+        for iid, rec in study.run_block(k).items():
+            records[iid].append(rec)
+        ap = max((r[-1].Ap[0] for r in records.values() if r), default=0.0)
+        progress.update(k, f"{sum(len(r) for r in records.values())} item-blocks, "
+                           f"max A_p body 1 {ap:.3g} %")
+    progress.close()
+    maps = study.gather_maps()
+    if rank0:
+        rows = []
+        for it in study.items:
+            run_c = study.base.conditions[it.position - 1]
+            rows += summary_rows(it, run_c, records[it.id], study.item_lambda(it))
+        csv = write_summary(out / "summary.csv", SUMMARY_COLUMNS, rows)
+        h5 = write_results(out / "results.h5", study, records, maps,
+                           {"ranks": comm.size, "ranks_per_item": args.ranks_per_item,
+                            "wall_s": time.perf_counter() - t0})
+        log(f"wrote {csv} and {h5} in {time.perf_counter() - t0:.1f} s")
+    return 0
+
+
 def _cmd_check_env(args: argparse.Namespace) -> int:
     from micropit_hpc.checkenv import main as check_env
 
@@ -153,6 +209,21 @@ def build_parser() -> argparse.ArgumentParser:
                    help="time step, 1-based, of window.steps (default: the middle one)")
     p.add_argument("--out", required=True, metavar="DIR", help="output folder")
     p.set_defaults(func=_cmd_snapshot)
+
+    p = sub.add_parser("run", parents=[common],
+                       help="the life simulation of every work item of a scene",
+                       description="Run the life simulation (blocks of ΔN load cycles: "
+                                   "contact, stresses, Dang Van damage, wear, micropits) of "
+                                   "every work item of SCENE (positions × wear coefficients × "
+                                   "roughness scales × patches) on all ranks, and write "
+                                   "DIR/summary.csv and DIR/results.h5 (docs/outputs.md).")
+    p.add_argument("scene", metavar="SCENE", help="scene file (TOML)")
+    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--position", type=_positive_int, action="append", default=None,
+                   metavar="K", help="only position K (repeat for several; default all)")
+    p.add_argument("--ranks-per-item", type=_positive_int, default=1, metavar="R",
+                   help="ranks per work item group (default 1)")
+    p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("check-env", parents=[common],
                        help="check MPI, parallel HDF5, PETSc and FFTW (run under mpirun)",

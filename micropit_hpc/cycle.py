@@ -59,12 +59,16 @@ def window_grid(scene: Scene, b_ref: float) -> Grid:
     return Grid(w.nx, w.ny if w.ny is not None else w.nx, lx, ly)
 
 
-def body_surface(scene: Scene, body: int, grid: Grid) -> Topography:
-    """Topography of body 1 or 2 on the window grid (MODEL.md §3), from its [bodyN.surface]."""
+def body_surface(scene: Scene, body: int, grid: Grid, patch: int = 0) -> Topography:
+    """Topography of body 1 or 2 on the window grid (MODEL.md §3), from its [bodyN.surface].
+
+    ``patch`` numbers the independent synthetic patches of a study (``study.patches``): patch 0
+    draws the random streams (seed, body), patch p > 0 the streams (seed, body, p).
+    """
     b: Body = scene.body1 if body == 1 else scene.body2
     spec = b.surface
     key = f"body{body}.surface"
-    seed, spawn = scene.window.seed, (body,)
+    seed, spawn = scene.window.seed, (body,) if patch == 0 else (body, patch)
     try:
         if spec.kind == "smooth" or b.Rq == 0.0:
             return Topography(np.zeros(grid.shape), grid.dx, grid.dy, "smooth")
@@ -134,7 +138,8 @@ class PositionCycle:
     """The window, surfaces and solvers of one position of a study (MODEL.md §4)."""
 
     def __init__(self, study: ContactStudy, position: int,
-                 surfaces: tuple[Topography, Topography] | None = None):
+                 surfaces: tuple[Topography, Topography] | None = None,
+                 steps: int | None = None):
         scene = study.scene
         if not 1 <= position <= len(study.conditions):
             raise MicropitError(f"{scene.source}: position {position} does not exist (the "
@@ -145,12 +150,11 @@ class PositionCycle:
         self.grid = g = window_grid(scene, self.b_ref)
         if surfaces is None:
             surfaces = (body_surface(scene, 1, g), body_surface(scene, 2, g))
-        self.surfaces = surfaces
-        fft = self._fft = rfft_plan(g.shape)
-        self.rough_spectra = tuple(fft.forward(-s.heights) for s in surfaces)
+        self._fft = rfft_plan(g.shape)
+        self.set_surfaces(surfaces)
         rough = any(s.rq > 0 for s in surfaces)
         self.level = choose_level(scene, c, rough)
-        self.steps = scene.window.steps
+        self.steps = scene.window.steps if steps is None else int(steps)
         self.t_f = 2.0 * c.b / c.u_mean
         lub = scene.lubrication
         self.p_lim = lub.p_lim_hardness * min(scene.body1.hardness, scene.body2.hardness)
@@ -171,6 +175,11 @@ class PositionCycle:
         self._micro: dict[int, HalfSpaceStress] = {}
         self._macro_ellipse: dict[int, EllipticalContactField] = {}
         self._traction_spectra: tuple = (None, None, None)
+
+    def set_surfaces(self, surfaces: tuple[Topography, Topography]) -> None:
+        """Use new surfaces (worn, pitted) from now on; the contact level stays as chosen."""
+        self.surfaces = tuple(surfaces)
+        self.rough_spectra = tuple(self._fft.forward(-s.heights) for s in self.surfaces)
 
     # ---- kinematics --------------------------------------------------------------------------
     def time(self, step: int) -> float:
@@ -257,3 +266,24 @@ class PositionCycle:
                                                                            b_body.nu)
             sigma += field.stress(x, g.y[None, None, :], z, mu_signed)
         return sigma
+
+    def macro_history(self, body: int, mu_signed: float, samples: int) -> np.ndarray:
+        """The smooth load cycle of ``body`` (MODEL.md §4.4 "macro cycle"): the Hertz field with
+        the mean traction μ̄ p_H at x from −3b to 3b (``samples`` points) followed by the
+        unloaded state, at every depth layer. Shape (samples + 1, 6, N_z, 1, n_y') with
+        n_y' = 1 for a line contact and n_y for an elliptical one (the window rows)."""
+        c = self.cond
+        b_body = self.scene.body1 if body == 1 else self.scene.body2
+        xs = np.linspace(-3.0 * c.b, 3.0 * c.b, int(samples))
+        if c.geometry == "line":
+            sig = line_contact_stress(xs[:, None], self.z[None, :], c.b, c.p0, mu_signed,
+                                      b_body.nu)[..., None, None]            # (6, n, Nz, 1, 1)
+        else:
+            field = self._macro_ellipse.get(body)
+            if field is None:
+                field = self._macro_ellipse[body] = EllipticalContactField(c.b, c.a, c.p0,
+                                                                           b_body.nu)
+            sig = field.stress(xs[:, None, None], self.grid.y[None, None, :],
+                               self.z[None, :, None], mu_signed)[:, :, :, None, :]
+        sig = np.moveaxis(sig, 0, 1)
+        return np.concatenate([sig, np.zeros((1, *sig.shape[1:]))])

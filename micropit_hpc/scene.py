@@ -37,13 +37,22 @@ RPM = 2.0 * math.pi / 60.0
 # key declarations
 # --------------------------------------------------------------------------------------------
 TOP_LEVEL = ("study", "gear", "disc", "body1", "body2", "lubricant", "film", "hertz", "positions",
-             "window", "lubrication", "stress")
+             "window", "lubrication", "stress", "fatigue", "wear", "life")
 
-_STUDY = Section("study", "What the study is called.", (
+_STUDY = Section("study", """
+What the study is called, and the study dimensions beyond positions and wear coefficients. The
+work items of a study are positions × `wear.k_lub_s` × `roughness_scale` × `patches`.
+""", (
     Key("name", "name", "str", "Name of the study, shown in reports and results. Default: the "
         "file name without .toml.", default=None),
     Key("description", "description", "str", "Free text: where the numbers come from.",
         default=""),
+    Key("roughness_scale", "roughness_scale", "floats", "Factors on both bodies' roughness "
+        "(R_q and heights), one set of work items each; Λ scales as 1/factor (the paper's "
+        "Table 9).", default=[1.0], lo=0, hi=100, lo_open=True),
+    Key("patches", "patches", "int", "Independent synthetic roughness patches (seeds) per "
+        "position; patch p > 1 draws its own streams from `window.seed`.", default=1, lo=1,
+        hi=100000),
 ))
 
 _GEAR = Section("gear", """
@@ -247,6 +256,57 @@ _STRESS = Section("stress", "Subsurface stress layers (MODEL.md §4.2).", (
         choices=("quadratic", "uniform")),
 ))
 
+COUNTING = ("sliding", "rainflow")
+
+_FATIGUE = Section("fatigue", """
+Dang Van stress, S–N line and cycle counting (MODEL.md §4.3–§4.4). A material point fails, and
+the material above it detaches as a micropit, when its Miner damage reaches 1.
+""", (
+    Key("counting", "counting", "str", "`sliding`: one macro cycle (the smooth Hertz path) plus "
+        "n_μ = 2b|u1 − u2|/(u_i λ_c) micro-cycles of the rough path per load cycle, λ_c the "
+        "counterface's mean peak spacing; `rainflow`: rainflow-count τ̂ + α σ_H of the rough "
+        "path (time steps raised so that the slip per step ≤ λ_c/4).", default="sliding",
+        choices=COUNTING),
+    Key("woehler_A_MPa", "A", "float", "Slope A of σ_f = A ln N + B (σ_f = √3 τ_DV); negative.",
+        "MPa", 1e6, default=-40.0, lo=-1e5, hi=0, hi_open=True),
+    Key("woehler_B_MPa", "B", "float", "Intercept B of the S–N line.", "MPa", 1e6,
+        default=1600.0, lo=0, hi=1e6, lo_open=True),
+    Key("alpha_dv", "alpha", "float", "Dang Van hydrostatic sensitivity α_DV. Default "
+        "3(1/√3 − ½) = 0.232.", default=None, lo=0, hi=10),
+    Key("macro_samples", "macro_samples", "int", "Samples of the smooth macro path through "
+        "the contact (x from −3b to 3b, plus the unloaded state).", default=241, lo=8,
+        hi=100000),
+))
+
+_WEAR = Section("wear", """
+Local mild wear, Archard's law with a dimensional coefficient (MODEL.md §4.6):
+Δh_i = ½ (|u_s|/H_i) (1/m) Σ_t k p per load cycle, k = f_w k_lub on solid contact and k_lub on
+the fluid film.
+""", (
+    Key("k_lub_s", "k_lub", "floats", "Wear coefficients k_lub, one set of work items each "
+        "(the paper: 0, 1e-11, 5e-11 s).", "s", 1.0, default=[0.0], lo=0, hi=1e-3),
+    Key("solid_factor", "f_w", "float", "f_w: the factor on k_lub where the contact is solid.",
+        default=10.0, lo=0, hi=1e6),
+))
+
+_LIFE = Section("life", """
+The life simulation (MODEL.md §5): blocks of ΔN load cycles, each evaluated on the current
+surfaces, with the adaptive split of a block.
+""", (
+    Key("cycles_M", "cycles", "float", "Load cycles to simulate, in millions.", "Mcycles", 1e6,
+        default=3.0, lo=0, hi=1e6, lo_open=True),
+    Key("block_M", "block", "float", "Block ΔN between surface updates and checkpoints, in "
+        "millions (the paper: 1).", "Mcycles", 1e6, default=1.0, lo=0, hi=1e6, lo_open=True),
+    Key("max_wear_fraction", "max_wear_fraction", "float", "Split a block if its wear would "
+        "remove more than this fraction of the body's initial R_q anywhere.", default=0.1,
+        lo=0, hi=100, lo_open=True),
+    Key("max_damage_step", "max_damage_step", "float", "Split a block if it would raise the "
+        "maximum damage of the intact material by more than this.", default=0.25, lo=0,
+        hi=1e9, lo_open=True),
+    Key("max_splits", "max_splits", "int", "At most this many sub-blocks per block (the "
+        "smallest sub-block is ΔN/max_splits).", default=4, lo=1, hi=100000),
+))
+
 _FILM = Section("film", "Central film thickness of the smooth contact (MODEL.md §2.4).", (
     Key("model", "model", "str", "`DH61` (line, Dowson–Higginson 1961, ISO/TS 6336-22), `DH66` "
         "(line), `HD77c` (elliptical, Hamrock–Dowson central); `auto` picks DH61 for line and "
@@ -313,7 +373,7 @@ test roller. Without `radius*_y_mm` the contact is a line contact.
 
 SECTIONS: tuple[Section, ...] = (_STUDY, _GEAR, _PINION, _WHEEL, _POSITIONS, _DISC, _BODY1,
                                  _SURFACE1, _BODY2, _SURFACE2, _LUBRICANT, _FILM, _HERTZ,
-                                 _WINDOW, _LUBRICATION, _STRESS)
+                                 _WINDOW, _LUBRICATION, _STRESS, _FATIGUE, _WEAR, _LIFE)
 
 _KEYS_PREAMBLE = """
 Scene files are TOML. Keys carry their unit in their name (`module_mm`, `torque_Nm`, `p0_GPa`);
@@ -469,6 +529,36 @@ class StressSpec:
 
 
 @dataclass(frozen=True)
+class FatigueSpec:
+    """Dang Van, S–N and counting settings (MODEL.md §4.3–§4.4), SI."""
+
+    counting: str = "sliding"
+    A: float = -40e6
+    B: float = 1600e6
+    alpha: float | None = None
+    macro_samples: int = 241
+
+
+@dataclass(frozen=True)
+class WearSpec:
+    """Archard wear (MODEL.md §4.6): coefficients k_lub [s] and the solid-contact factor."""
+
+    k_lub: tuple[float, ...] = (0.0,)
+    f_w: float = 10.0
+
+
+@dataclass(frozen=True)
+class LifeSpec:
+    """Blocks of the life simulation (MODEL.md §5), in cycles."""
+
+    cycles: float = 3e6
+    block: float = 1e6
+    max_wear_fraction: float = 0.1
+    max_damage_step: float = 0.25
+    max_splits: int = 4
+
+
+@dataclass(frozen=True)
 class Scene:
     """A validated scene, SI units. ``document`` is the TOML as read (for results files)."""
 
@@ -486,6 +576,11 @@ class Scene:
     window: WindowSpec = field(default_factory=WindowSpec)
     lubrication: LubricationSpec = field(default_factory=LubricationSpec)
     stress: StressSpec = field(default_factory=StressSpec)
+    fatigue: FatigueSpec = field(default_factory=FatigueSpec)
+    wear: WearSpec = field(default_factory=WearSpec)
+    life: LifeSpec = field(default_factory=LifeSpec)
+    roughness_scale: tuple[float, ...] = (1.0,)
+    patches: int = 1
     document: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
 
     @property
@@ -550,11 +645,21 @@ def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
     window = WindowSpec(**read_section(doc.get("window"), _WINDOW, source))
     lubrication = LubricationSpec(**read_section(doc.get("lubrication"), _LUBRICATION, source))
     stress = StressSpec(**read_section(doc.get("stress"), _STRESS, source))
+    fatigue = FatigueSpec(**read_section(doc.get("fatigue"), _FATIGUE, source))
+    wear = WearSpec(**read_section(doc.get("wear"), _WEAR, source))
+    life = LifeSpec(**read_section(doc.get("life"), _LIFE, source))
+    if life.block > life.cycles:
+        raise SceneError(source, f"the block ΔN = {life.block / 1e6:g} M is longer than the "
+                                 f"whole life of {life.cycles / 1e6:g} M cycles",
+                         key="life.block_M", value=life.block / 1e6,
+                         allowed=f"≤ life.cycles_M = {life.cycles / 1e6:g}")
     name = study["name"] or Path(source).stem
     return Scene(source=source, name=name, description=study["description"], body1=body1,
                  body2=body2, lubricant=lub, film=film, hertz_E_star=hertz_v["E_star"],
                  gear=gear, positions=positions, disc=disc, window=window,
-                 lubrication=lubrication, stress=stress, document=dict(doc))
+                 lubrication=lubrication, stress=stress, fatigue=fatigue, wear=wear,
+                 life=life, roughness_scale=study["roughness_scale"],
+                 patches=study["patches"], document=dict(doc))
 
 
 def _read_body(table: Mapping[str, Any], section: Section, surface: Section,

@@ -42,7 +42,31 @@ class SerialComm:
     def allgather(self, obj):
         return [obj]
 
+    def gather(self, obj, root=0):
+        return [obj]
+
     def Barrier(self):
+        pass
+
+    def Get_rank(self) -> int:
+        return 0
+
+    def Get_size(self) -> int:
+        return 1
+
+    def allreduce(self, obj, op=None):
+        """The reduction over one rank is the value itself (``op`` is ignored)."""
+        return obj
+
+    def Allreduce(self, sendbuf, recvbuf, op=None):
+        """Buffer reduction over one rank: a copy of ``sendbuf`` into ``recvbuf``."""
+        recvbuf[...] = sendbuf
+
+    def Split(self, color=0, key=0):
+        """Every split of one rank is again one rank."""
+        return SerialComm()
+
+    def Free(self):
         pass
 
 

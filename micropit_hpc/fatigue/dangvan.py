@@ -1,0 +1,305 @@
+"""Dang Van multiaxial fatigue: the mesoscopic shear of a stress path (MODEL.md §4.3).
+
+For each material point, over the m samples of its stress history σ(t) (Dang Van, Cailletaud,
+Flavenot, Le Douaron & Lieurade 1989; in rolling contact [B11] Morales-Espejel & Brizmer 2011,
+[D06] Desimone, Bernasconi & Beretta 2006):
+
+* deviator s(t) = σ(t) − σ_H(t) I, σ_H = tr σ / 3;
+* s_m = the centre of the smallest hypersphere enclosing the path {s(t)} in the space of
+  deviators with the Frobenius norm (the 6-vector with √2 on the shear components);
+  ŝ(t) = s(t) − s_m;
+* mesoscopic shear τ̂(t) = (ŝ_I − ŝ_III)/2 (Tresca of ŝ), and
+  τ_DV = max_t [τ̂(t) + α_DV σ_H(t)], α_DV = 3(1/√3 − ½) ≈ 0.232.
+
+Deviators are handled as 5-vectors in an orthonormal basis of the trace-free symmetric tensors,
+
+    v = ((σxx − σyy)/√2, (σxx + σyy − 2σzz)/√6, √2 σyz, √2 σxz, √2 σxy),
+
+so |v|² = s:s and the hydrostatic part drops out without being formed.
+
+The enclosing ball is found per point by the Frank–Wolfe algorithm with away steps on the dual
+problem (Yildirim, SIAM J. Optim. 19 (2008) 1368, Algorithm 2; the plain Frank–Wolfe iteration is
+Bădoiu & Clarkson's): weights λ on the simplex, centre c = Σ λ_k p_k, dual value
+ρ = Σ λ_k |p_k − c|² ≤ R*² ≤ R(c)² = max_k |p_k − c|². Both steps use the exact line search, the
+iteration converges linearly, and it stops when R(c)² − ρ ≤ tol · R(c)²; since the squared
+distance to the farthest point is 1-strongly convex in c, the centre is then within √tol · R of
+the exact one. All points advance together in NumPy arrays with the point axis last; a point's
+result depends only on its own path (converged points are compacted away), so it is the same
+bitwise in any batch or decomposition.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["ALPHA_DV", "DangVan", "dang_van", "deviator_vectors", "enclosing_ball",
+           "mesoscopic_shear"]
+
+#: α_DV = 3(1/√3 − ½): the Dang Van hydrostatic sensitivity (MODEL.md §4.3).
+ALPHA_DV = 3.0 * (1.0 / math.sqrt(3.0) - 0.5)
+
+_R2, _R6 = math.sqrt(2.0), math.sqrt(6.0)
+
+
+def deviator_vectors(sigma: np.ndarray) -> np.ndarray:
+    """Deviators of Voigt stresses as orthonormal 5-vectors (module docstring).
+
+    ``sigma`` has the 6 Voigt components (xx, yy, zz, yz, xz, xy) on axis 0; the result has the
+    5 components on axis 0 and the remaining axes unchanged, with |v|² = s:s.
+    """
+    sxx, syy, szz, syz, sxz, sxy = sigma
+    return np.stack(((sxx - syy) / _R2, (sxx + syy - 2.0 * szz) / _R6,
+                     _R2 * syz, _R2 * sxz, _R2 * sxy))
+
+
+def _sq_dist(p: np.ndarray, c: np.ndarray) -> np.ndarray:
+    """|p_k − c|² for p (d, m, n) and c (d, n); sums over the leading axis in a fixed order."""
+    diff = p[0] - c[0]
+    r = diff * diff
+    for i in range(1, p.shape[0]):
+        diff = p[i] - c[i]
+        r += diff * diff
+    return r
+
+
+def _support_correction(p, c, lam):
+    """One active-set step on the support of each set (called every few Frank–Wolfe steps).
+
+    Let S be the support (λ_k > 0) of a set; of a larger support only the d + 2 points of
+    largest weight are used (they are always affinely dependent, first case below).
+
+    * S affinely dependent (more than d + 1 points, or all in a lower-dimensional flat, as the
+      surface layer's paths with σ_yz = 0): a vector μ with Σ μ_k p_k = 0, Σ μ_k = 0 exists
+      (the last right-singular vector of [p − c; 1] over S). Moving λ along μ until a weight
+      reaches zero keeps c and removes that point; the sign of μ is chosen so that the dual
+      value ρ = Σ λ_k |p_k − c|² does not fall (Carathéodory's theorem).
+    * S affinely independent: the point c' of its affine hull equidistant from S,
+      c' = p_0 + Σ β_j D_j with D_i·D_j β_j = ½|D_i|², D_j = p_j − p_0, maximises the concave
+      dual on the face spanned by S. Where its weights λ' are all ≥ 0 the step goes there;
+      otherwise along λ → λ' until the first weight reaches zero, which leaves S.
+
+    The dual value never falls. Returns the new (c, lam) and a mask of the sets from which a
+    point left (worth another step at once).
+    """
+    d, m, n = p.shape
+    k = min(d + 2, m)
+    count = (lam > 0.0).sum(axis=0)
+    order = np.argsort(-lam, axis=0, kind="stable")[:k]                # (k, n)
+    c, lam = c.copy(), lam.copy()
+    blocked = np.zeros(n, bool)
+    for s in range(2, k + 1):
+        sel = np.flatnonzero(count >= s if s == d + 2 else count == s)
+        if sel.size == 0:
+            continue
+        o = order[:s, sel]                                               # (s, q)
+        pts = np.take_along_axis(p[:, :, sel], np.broadcast_to(o, (d, *o.shape)), axis=1)
+        w = np.take_along_axis(lam[:, sel], o, axis=0)                   # (s, q)
+        cs = c[:, sel]
+        dependent = np.ones(sel.size, bool)
+        # ---- independent supports: go to (or towards) the face's exact centre ------------
+        if s <= d + 1:
+            D = pts[:, 1:] - pts[:, :1]                                  # (d, s-1, q)
+            M = np.einsum("aiu,aju->uij", D, D)
+            rhs = 0.5 * np.einsum("aiu,aiu->ui", D, D)
+            with np.errstate(all="ignore"):
+                try:
+                    beta = np.linalg.solve(M, rhs[:, :, None])[:, :, 0]  # (q, s-1)
+                except np.linalg.LinAlgError:        # an exactly singular M somewhere
+                    beta = np.full((sel.size, s - 1), np.nan)
+                new_w = np.concatenate([(1.0 - beta.sum(axis=1))[None], beta.T])  # (s, q)
+                # accept where the centre is equidistant from the support (a nearly
+                # dependent support fails this and goes to the Carathéodory step)
+                cc = pts[:, 0] + np.einsum("aiu,iu->au", D, beta.T)
+                r_sup = _sq_dist(pts, cc)
+                ok = (np.abs(r_sup - r_sup[0]) <= 1e-9 * r_sup[0]).all(axis=0)
+                ok &= np.isfinite(new_w).all(axis=0) & (np.abs(new_w).max(axis=0) < 1e8)
+                dec = new_w < w
+                ratio = np.where(dec, w / np.where(dec, w - new_w, 1.0), np.inf)
+            first = np.argmin(ratio, axis=0)
+            cols = np.arange(sel.size)
+            t = np.minimum(ratio[first, cols], 1.0)
+            ok &= t > 0.0
+            wi = w + t * (new_w - w)
+            hit = ok & (t < 1.0)
+            wi[first[hit], cols[hit]] = 0.0
+            w = np.where(ok, np.maximum(wi, 0.0), w)
+            blocked[sel[hit]] = True
+            dependent = ~ok
+        # ---- affinely dependent supports: drop a point, keep the centre -----------------
+        if dependent.any():
+            j = np.flatnonzero(dependent)
+            pj, cj = pts[:, :, j], cs[:, j]
+            scale = np.sqrt(_sq_dist(pj, cj).max(axis=0))
+            scale = np.where(scale > 0.0, scale, 1.0)
+            A = np.concatenate([(pj - cj[:, None, :]) / scale, np.ones((1, s, j.size))])
+            mu = np.linalg.svd(A.transpose(2, 0, 1))[2][:, -1, :].T      # (s, qj)
+            mu *= np.where((mu * _sq_dist(pj, cj)).sum(axis=0) < 0.0, -1.0, 1.0)
+            wj = w[:, j]
+            neg = mu < 0.0
+            ratio = np.where(neg, wj / np.where(neg, -mu, 1.0), np.inf)
+            first = np.argmin(ratio, axis=0)
+            cols = np.arange(j.size)
+            wj = np.maximum(wj + ratio[first, cols] * mu, 0.0)
+            wj[first, cols] = 0.0
+            w[:, j] = wj
+            blocked[sel[j]] = True
+        lam[o, np.broadcast_to(sel, o.shape)] = w
+        lam[:, sel] /= lam[:, sel].sum(axis=0)
+        c[:, sel] = np.einsum("aku,ku->au", p[:, :, sel], lam[:, sel])
+    return c, lam, blocked
+
+
+def enclosing_ball(points: np.ndarray, tol: float = 1e-12, max_iter: int = 2000,
+                   correct_every: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Smallest ball enclosing each of n point sets.
+
+    ``points`` has shape (d, m, n): n sets of m points in d dimensions. Returns the centres
+    (d, n), the radii (n,) and the iterations each set took (n,).
+
+    Frank–Wolfe with away steps on the dual (Yildirim 2008, Algorithm 2) finds the support;
+    every ``correct_every`` iterations a fully-corrective step (:func:`_support_correction`)
+    jumps to the exact centre of the current support, so a set whose support has been found
+    converges to round-off in one step (plain Frank–Wolfe zig-zags for thousands of iterations
+    on real stress paths). A set stops when R(c)² − ρ ≤ tol·R(c)² (module docstring). Sets
+    still open after ``max_iter`` iterations raise RuntimeError.
+    """
+    p = np.ascontiguousarray(points, dtype=float)
+    d, m, n = p.shape
+    if m < 1:
+        raise ValueError("enclosing_ball: each set needs at least one point")
+    idx = np.arange(n)
+    # initial pair (Yildirim): beta farthest from p_0, gamma farthest from beta
+    beta = np.argmax(_sq_dist(p, p[:, 0, :]), axis=0)
+    gamma = np.argmax(_sq_dist(p, p[:, beta, idx]), axis=0)
+    lam = np.zeros((m, n))
+    lam[beta, idx] += 0.5
+    lam[gamma, idx] += 0.5
+    c = 0.5 * (p[:, beta, idx] + p[:, gamma, idx])
+
+    centre = np.empty((d, n))
+    radius2 = np.empty(n)
+    iters = np.zeros(n, dtype=np.int64)
+    active = idx.copy()        # original ids of the sets still iterating
+    for it in range(max_iter + 1):
+        r = _sq_dist(p, c)
+        far = np.argmax(r, axis=0)
+        cols = np.arange(active.size)
+        R2 = r[far, cols]
+        rho = (lam * r).sum(axis=0)
+        done = R2 - rho <= tol * R2
+        if done.any():
+            centre[:, active[done]] = c[:, done]
+            radius2[active[done]] = R2[done]
+            iters[active[done]] = it
+            keep = ~done
+            if not keep.any():
+                break
+            p, c, lam, r, far, R2, rho = (p[:, :, keep], c[:, keep], lam[:, keep], r[:, keep],
+                                          far[keep], R2[keep], rho[keep])
+            active = active[keep]
+            cols = np.arange(active.size)
+        if it == max_iter:
+            raise RuntimeError(f"enclosing_ball: {active.size} point sets not converged to "
+                               f"tol = {tol:g} after {max_iter} iterations")
+        # away vertex: the nearest point among those with positive weight
+        away = np.argmin(np.where(lam > 0.0, r, np.inf), axis=0)
+        r_a = r[away, cols]
+        lam_a = lam[away, cols]
+        gain_fw, gain_away = R2 - rho, rho - r_a
+        fw = gain_fw >= gain_away
+        # Frank-Wolfe step towards the farthest point: gamma = (R² − ρ)/(2R²) in (0, ½]
+        g_fw = gain_fw / (2.0 * R2)
+        # away step from the nearest support point: gamma ≤ λ_a/(1 − λ_a) keeps λ_a ≥ 0
+        g_max = np.where(lam_a < 1.0, lam_a / np.where(lam_a < 1.0, 1.0 - lam_a, 1.0), 0.0)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g_aw = np.where(r_a > 0.0, gain_away / (2.0 * r_a), np.inf)
+        g_aw = np.minimum(g_aw, g_max)
+        drop = ~fw & (g_aw == g_max)               # the away vertex leaves the support
+        g = np.where(fw, g_fw, g_aw)
+        scale = np.where(fw, 1.0 - g, 1.0 + g)
+        lam *= scale
+        target = np.where(fw, far, away)
+        lam[target, cols] += np.where(fw, g, -g)
+        lam[away[drop], cols[drop]] = 0.0
+        pt = p[:, target, cols]
+        c = scale * c + np.where(fw, g, -g) * pt
+        if correct_every and it % correct_every == correct_every - 1:
+            sub = cols
+            for _ in range(d + 2):          # minor cycles (Wolfe 1976) while a point leaves
+                c_s, lam_s, blocked = _support_correction(p[:, :, sub], c[:, sub], lam[:, sub])
+                c[:, sub], lam[:, sub] = c_s, lam_s
+                sub = sub[blocked]
+                if sub.size == 0:
+                    break
+    return centre, np.sqrt(radius2), iters
+
+
+def mesoscopic_shear(v: np.ndarray) -> np.ndarray:
+    """Tresca shear (ŝ_I − ŝ_III)/2 of trace-free tensors given as 5-vectors (axis 0).
+
+    With J2 = ½ ŝ:ŝ = ½|v|², J3 = det ŝ and cos 3θ = (3√3/2) J3/J2^{3/2} (θ ∈ [0, π/3], the
+    Lode angle), the principal values are 2√(J2/3) cos(θ − 2πk/3), so
+    (ŝ_I − ŝ_III)/2 = √J2 sin(θ + π/3).
+    """
+    a, b = v[0] / _R2, v[1] / _R6
+    sxx, syy, szz = a + b, b - a, -2.0 * b
+    syz, sxz, sxy = v[2] / _R2, v[3] / _R2, v[4] / _R2
+    j2 = 0.5 * (v[0] * v[0] + v[1] * v[1] + v[2] * v[2] + v[3] * v[3] + v[4] * v[4])
+    j3 = (sxx * syy * szz + 2.0 * sxy * syz * sxz - sxx * syz * syz - syy * sxz * sxz
+          - szz * sxy * sxy)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        cos3 = np.where(j2 > 0.0, 1.5 * math.sqrt(3.0) * j3 / (j2 * np.sqrt(j2)), 0.0)
+    theta = np.arccos(np.clip(cos3, -1.0, 1.0)) / 3.0
+    return np.sqrt(j2) * np.sin(theta + math.pi / 3.0)
+
+
+@dataclass(frozen=True)
+class DangVan:
+    """Dang Van result per material point (shapes: the point axes of the input).
+
+    ``tau_dv``: max_t [τ̂ + α σ_H] [Pa]; ``series``: τ̂(t) + α σ_H(t) (time first), present only
+    when asked for (rainflow counting); ``radius``: the enclosing radius R* (Frobenius, [Pa]);
+    ``iterations``: the most enclosing-ball iterations any point needed.
+    """
+
+    tau_dv: np.ndarray
+    radius: np.ndarray
+    iterations: int
+    series: np.ndarray | None = None
+
+
+def dang_van(history: np.ndarray, alpha: float = ALPHA_DV, tol: float = 1e-12,
+             chunk: int = 32768, keep_series: bool = False) -> DangVan:
+    """τ_DV of every material point of a stress history (MODEL.md §4.3, [B11] eq. 8–10).
+
+    ``history`` has shape (m, 6, *points): m time samples of the Voigt stresses (xx, yy, zz, yz,
+    xz, xy; tension positive) at every point. Points are processed in chunks of ``chunk`` to
+    bound the temporaries; a point's result does not depend on the chunking.
+    """
+    h = np.asarray(history, dtype=float)
+    if h.ndim < 2 or h.shape[1] != 6:
+        raise ValueError(f"dang_van: history must have shape (m, 6, ...), got {h.shape}")
+    m, pts = h.shape[0], h.shape[2:]
+    flat = h.reshape(m, 6, -1)
+    n = flat.shape[2]
+    tau = np.empty(n)
+    rad = np.empty(n)
+    series = np.empty((m, n)) if keep_series else None
+    most = 0
+    for lo in range(0, n, chunk):
+        hi = min(n, lo + chunk)
+        sig = flat[:, :, lo:hi].transpose(1, 0, 2)            # (6, m, k)
+        v = deviator_vectors(sig)                              # (5, m, k)
+        centre, radius, iters = enclosing_ball(v, tol=tol)
+        shear = mesoscopic_shear(v - centre[:, None, :])       # (m, k)
+        y = shear + alpha * (sig[0] + sig[1] + sig[2]) / 3.0
+        tau[lo:hi] = y.max(axis=0)
+        rad[lo:hi] = radius
+        if series is not None:
+            series[:, lo:hi] = y
+        most = max(most, int(iters.max(initial=0)))
+    return DangVan(tau_dv=tau.reshape(pts), radius=rad.reshape(pts), iterations=most,
+                   series=None if series is None else series.reshape((m, *pts)))

@@ -1,0 +1,55 @@
+"""The S–N (Wöhler) line of the Dang Van stress and the damage per cycle (MODEL.md §4.4).
+
+σ_f = A ln N + B with the equivalent normal stress σ_f = √3 τ (the paper's Wöhler curve of the
+gear steel, A = −40 MPa, B = 1600 MPa; the paper prints A = 40 MPa as a "slope", but it must be
+negative for a falling curve), so
+
+    N(τ) = exp[(√3 τ − B)/A],   1/N(τ) = exp[(√3 τ − B)/(−A)],
+
+and no damage where τ ≤ 0 (the Dang Van stress is then below the fatigue limit of any finite
+life). Morales-Espejel, Rycerz & Kadiric, Wear 398–399 (2018) §2.1; [B11] used A = −43 MPa,
+B = 1220 MPa for 52100 bearing steel.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["WoehlerLine"]
+
+_MAX_EXP = 700.0      # exp(700) ≈ 1e304: a damage per cycle this large means instant failure
+
+
+@dataclass(frozen=True)
+class WoehlerLine:
+    """σ_f = A ln N + B on σ_f = √3 τ_DV; A < 0 and B in Pa."""
+
+    A: float = -40e6
+    B: float = 1600e6
+
+    def __post_init__(self):
+        if not (self.A < 0 and math.isfinite(self.A)):
+            raise ValueError(f"Wöhler slope A = {self.A!r} Pa: must be negative (a falling "
+                             "curve σ_f = A ln N + B)")
+        if not (self.B > 0 and math.isfinite(self.B)):
+            raise ValueError(f"Wöhler intercept B = {self.B!r} Pa: must be positive")
+
+    def life(self, tau: np.ndarray) -> np.ndarray:
+        """N(τ) = exp[(√3 τ − B)/A] cycles; infinite where τ ≤ 0."""
+        tau = np.asarray(tau, dtype=float)
+        with np.errstate(over="ignore"):
+            n = np.exp(np.minimum((math.sqrt(3.0) * tau - self.B) / self.A, _MAX_EXP))
+        return np.where(tau > 0.0, n, np.inf)
+
+    def damage(self, tau: np.ndarray) -> np.ndarray:
+        """1/N(τ) per cycle; 0 where τ ≤ 0."""
+        tau = np.asarray(tau, dtype=float)
+        x = np.minimum((math.sqrt(3.0) * tau - self.B) / -self.A, _MAX_EXP)
+        return np.where(tau > 0.0, np.exp(x), 0.0)
+
+    def strength(self, cycles: np.ndarray) -> np.ndarray:
+        """The Dang Van shear strength τ_f(N) = (A ln N + B)/√3 for a life of N cycles."""
+        return (self.A * np.log(np.asarray(cycles, dtype=float)) + self.B) / math.sqrt(3.0)

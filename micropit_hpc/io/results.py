@@ -1,0 +1,103 @@
+"""Results of ``micropit run`` (docs/outputs.md): ``summary.csv`` and ``results.h5``.
+
+Both are written by world rank 0 as ``*.tmp``, flushed, fsynced and renamed, so a crash never
+leaves a half-written file under the final name. Engineering units in the CSV (µm, GPa, %); SI
+in the HDF5 file, with units in each dataset's ``unit`` attribute.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from micropit_hpc import __version__
+from micropit_hpc.errors import MicropitError
+from micropit_hpc.io.snapshot import _h5py, scene_json
+from micropit_hpc.report import write_text_atomic
+
+__all__ = ["write_results", "write_summary"]
+
+
+def _cell(v) -> str:
+    if isinstance(v, float):
+        return format(v, ".6g")
+    return str(v)
+
+
+def write_summary(path: str | Path, columns: Sequence[str], rows: Sequence[tuple]) -> Path:
+    """summary.csv: one row per item, body and block end."""
+    text = ",".join(columns) + "\n" + "".join(",".join(_cell(v) for v in r) + "\n"
+                                              for r in rows)
+    path = Path(path)
+    try:
+        write_text_atomic(path, text)
+    except OSError as e:
+        raise MicropitError(f"cannot write {path}: {e.strerror or e}") from None
+    return path
+
+
+def write_results(path: str | Path, study, records: Mapping[int, list],
+                  maps: Mapping[int, Mapping[str, np.ndarray]], meta: Mapping[str, object]) -> Path:
+    """results.h5: the items, their block histories and their final maps (docs/outputs.md)."""
+    h5py = _h5py()
+    path = Path(path)
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        with h5py.File(tmp, "w", driver=None) as f:
+            f.attrs["code_version"] = __version__
+            f.attrs["scene"] = scene_json(study.scene.document)
+            f.attrs["scene_file"] = str(study.scene.source)
+            f.attrs["created_utc"] = _dt.datetime.now(_dt.UTC).isoformat()
+            for k, v in meta.items():
+                f.attrs[k] = v
+            items = study.items
+            tab = f.create_group("items")
+            tab["id"] = np.array([i.id for i in items])
+            tab["position"] = np.array([i.position for i in items])
+            tab["k_lub"] = np.array([i.k_lub for i in items])
+            tab["k_lub"].attrs["unit"] = "s"
+            tab["roughness_scale"] = np.array([i.scale for i in items])
+            tab["patch"] = np.array([i.patch for i in items])
+            conds = [study.base.conditions[i.position - 1] for i in items]
+            tab["S"] = np.array([c.S for c in conds])
+            tab["p0"] = np.array([c.p0 for c in conds])
+            tab["p0"].attrs["unit"] = "Pa"
+            tab["Lambda"] = np.array([study.item_lambda(i) for i in items])
+            hist = f.create_group("history")
+            for iid, recs in records.items():
+                g = hist.create_group(f"item_{iid:05d}")
+                g["block"] = np.array([r.block for r in recs])
+                g["cycles"] = np.array([r.cycles for r in recs])
+                g["sub_blocks"] = np.array([r.sub_blocks for r in recs])
+                g["phi"] = np.array([r.phi for r in recs])
+                g["wall_s"] = np.array([r.wall_s for r in recs])
+                for name, unit in (("Ap", "%"), ("max_damage", "1"), ("wear_mean", "m"),
+                                   ("wear_max", "m"), ("Rq", "m"), ("n_micro", "1")):
+                    g[name] = np.array([getattr(r, name) for r in recs])   # (blocks, 2)
+                    g[name].attrs["unit"] = unit
+            mg = f.create_group("maps")
+            for iid, m in maps.items():
+                g = mg.create_group(f"item_{iid:05d}")
+                for name, arr in m.items():
+                    g.create_dataset(name, data=arr, compression="gzip", compression_opts=4,
+                                     shuffle=True)
+            grid, z = study.window()
+            f["grid/z"] = z
+            f["grid/z"].attrs["unit"] = "m"
+            f["grid/dx"] = grid.dx
+            f["grid/dy"] = grid.dy
+            f.attrs["complete"] = 1
+            f.flush()
+        fd = os.open(tmp, os.O_RDONLY)
+        try:
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+        os.replace(tmp, path)
+    except OSError as e:
+        raise MicropitError(f"cannot write {path}: {e.strerror or e}") from None
+    return path

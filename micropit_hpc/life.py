@@ -1,0 +1,306 @@
+"""The life simulation at one contact point: blocks of ΔN load cycles (MODEL.md §5).
+
+Per block: one load-cycle evaluation (MODEL.md §4) on the current surfaces of both bodies →
+damage per cycle d(z, x, y) (Dang Van, S–N line, cycle counting) and wear per cycle Δh(x, y)
+(Archard) of each body → Miner's rule D += ΔN d, wear removed and the damage columns moved up,
+micropits where D ≥ 1 → surfaces updated for the next block.
+
+**Adaptive blocks [choice]** (MODEL.md §5): a block is split into sub-blocks, each evaluated on
+the surfaces the previous one left, when in one go it would remove more than
+``max_wear_fraction`` of a body's initial R_q anywhere, or raise the largest damage of the
+intact material by more than ``max_damage_step``. The sub-block is then cut to the wear limit,
+and halved while the damage rise is too large, but never below ΔN/``max_splits``. ΔN stays the
+checkpoint and report interval.
+
+Units: SI (metres, pascals, cycles). Physics only: no I/O, no MPI.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from micropit_hpc.cycle import PositionCycle
+from micropit_hpc.fatigue.dangvan import ALPHA_DV, dang_van
+from micropit_hpc.fatigue.rainflow import rainflow_damage
+from micropit_hpc.fatigue.sn import WoehlerLine
+from micropit_hpc.pits import detach, shift_columns
+from micropit_hpc.surfaces import Topography
+from micropit_hpc.wear import archard_rate
+
+__all__ = ["BlockRecord", "BodyCycle", "BodyState", "CycleResult", "LifeParams", "LifeState",
+           "apply_cycles", "evaluate_cycle", "initial_state", "micro_cycles",
+           "rainflow_steps", "run_block", "sub_block_cycles", "with_steps"]
+
+
+@dataclass(frozen=True)
+class LifeParams:
+    """Fatigue, wear and block settings of one work item (SI)."""
+
+    k_lub: float = 0.0
+    f_w: float = 10.0
+    woehler: WoehlerLine = field(default_factory=WoehlerLine)
+    alpha: float = ALPHA_DV
+    counting: str = "sliding"
+    macro_samples: int = 241
+    block: float = 1e6
+    max_wear_fraction: float = 0.1
+    max_damage_step: float = 0.25
+    max_splits: int = 4
+
+    @classmethod
+    def from_scene(cls, scene, k_lub: float) -> LifeParams:
+        f, life = scene.fatigue, scene.life
+        return cls(k_lub=k_lub, f_w=scene.wear.f_w, woehler=WoehlerLine(f.A, f.B),
+                   alpha=ALPHA_DV if f.alpha is None else f.alpha, counting=f.counting,
+                   macro_samples=f.macro_samples, block=life.block,
+                   max_wear_fraction=life.max_wear_fraction,
+                   max_damage_step=life.max_damage_step, max_splits=life.max_splits)
+
+
+@dataclass
+class BodyState:
+    """The evolving state of one body of a work item (material frame, SI).
+
+    ``heights`` (n_x, n_y): the surface; ``damage`` (N_z, n_x, n_y): Miner damage on the layers
+    below the local surface; ``pitted``: columns that have lost material to a micropit;
+    ``wear``: cumulative wear depth; ``pit_depth``: cumulative depth lost to pits; ``rq0``: the
+    initial R_q (the split criterion's yardstick).
+    """
+
+    heights: np.ndarray
+    damage: np.ndarray
+    pitted: np.ndarray
+    wear: np.ndarray
+    pit_depth: np.ndarray
+    rq0: float
+
+    @property
+    def Ap(self) -> float:
+        """Micropitted area fraction A_p [%] (MODEL.md §4.5)."""
+        return 100.0 * float(self.pitted.mean())
+
+    @property
+    def rq(self) -> float:
+        return float(self.heights.std())
+
+
+@dataclass
+class LifeState:
+    """Both bodies of a work item, the cycles done and the block records so far."""
+
+    bodies: tuple[BodyState, BodyState]
+    cycles: float = 0.0
+    block: int = 0
+    records: list[BlockRecord] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class BodyCycle:
+    """One load cycle's effect on one body: damage per cycle (N_z, n_x, n_y), wear per cycle
+    (n_x, n_y) [m], the rough and smooth Dang Van stresses [Pa], the micro-cycles per load
+    cycle n_μ and the counterface's peak spacing λ_c [m]."""
+
+    damage_rate: np.ndarray
+    wear_rate: np.ndarray
+    tau_rough: np.ndarray
+    tau_smooth: np.ndarray
+    n_micro: float
+    lam_c: float
+
+
+@dataclass(frozen=True)
+class CycleResult:
+    """A load-cycle evaluation: both bodies, the load fraction carried by solid contact φ
+    (pressure-weighted over the steps), the solid-contact area fraction, the steps used and
+    the wall time."""
+
+    bodies: tuple[BodyCycle, BodyCycle]
+    phi: float
+    solid_fraction: float
+    steps: int
+    wall_s: float
+
+
+@dataclass(frozen=True)
+class BlockRecord:
+    """The state at the end of a block (one value per body where a pair)."""
+
+    block: int
+    cycles: float
+    sub_blocks: int
+    phi: float
+    wall_s: float
+    Ap: tuple[float, float]
+    max_damage: tuple[float, float]
+    wear_mean: tuple[float, float]
+    wear_max: tuple[float, float]
+    Rq: tuple[float, float]
+    n_micro: tuple[float, float]
+
+
+def initial_state(cycle: PositionCycle) -> LifeState:
+    """Fresh bodies on the cycle's surfaces: no damage, no wear, no pits."""
+    g, nz = cycle.grid, cycle.z.size
+    bodies = tuple(BodyState(heights=s.heights.copy(), damage=np.zeros((nz, *g.shape)),
+                             pitted=np.zeros(g.shape, bool), wear=np.zeros(g.shape),
+                             pit_depth=np.zeros(g.shape), rq0=s.rq)
+                   for s in cycle.surfaces)
+    return LifeState(bodies=bodies)
+
+
+def micro_cycles(cycle: PositionCycle, body: int, lam_c: float) -> float:
+    """n_μ,i = 2b |u1 − u2| / (u_i λ_c,j) micro-cycles per load cycle (MODEL.md §4.4): the
+    counterface j slides 2b|u1 − u2|/u_i past a point of body i while it crosses the contact."""
+    c = cycle.cond
+    u_i = c.u1 if body == 1 else c.u2
+    if not math.isfinite(lam_c) or c.u1 == c.u2:
+        return 0.0
+    return 2.0 * c.b * abs(c.u1 - c.u2) / (u_i * lam_c)
+
+
+def rainflow_steps(cycle: PositionCycle, lam_c: float) -> int:
+    """Time steps for rainflow counting (MODEL.md §4.4): the relative slip per step 2b|S|/m must
+    not exceed λ_c/4, so m ≥ 8 b |S| / λ_c; never fewer than the scene's steps."""
+    c = cycle.cond
+    if not math.isfinite(lam_c) or lam_c <= 0:
+        return cycle.steps
+    return max(cycle.steps, math.ceil(8.0 * c.b * abs(c.S) / lam_c - 1e-9))
+
+
+def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -> CycleResult:
+    """One load cycle on the current surfaces (MODEL.md §4): contact at every step, stresses
+    and Dang Van per body, damage and wear per cycle."""
+    t0 = time.perf_counter()
+    g = cycle.grid
+    tops = tuple(Topography(b.heights, g.dx, g.dy, "evolved") for b in state.bodies)
+    cycle.set_surfaces(tops)
+    lam = tuple(t.peak_spacing_x() if t.rq > 0 else math.inf for t in tops)
+    fields, p_prev = [], None
+    for j in range(cycle.steps):
+        f = cycle.solve_step(j, p_prev)
+        fields.append(f)
+        p_prev = f.pressure
+    p_sum = sum(float(f.pressure.sum()) for f in fields)
+    weights = np.array([f.p_mean for f in fields])
+    phi = float((weights * [f.phi for f in fields]).sum() / weights.sum()) if weights.any() else 0.0
+    solid = float(np.mean([f.solid.mean() for f in fields]))
+    c = cycle.cond
+    out = []
+    for body in (1, 2):
+        bs = state.bodies[body - 1]
+        hist = np.stack([cycle.stresses(f, body) for f in fields])     # (m, 6, Nz, nx, ny)
+        rainflow = params.counting == "rainflow"
+        dv = dang_van(hist, alpha=params.alpha, keep_series=rainflow)
+        del hist
+        q = sum(float((f.traction1 if body == 1 else f.traction2).sum()) for f in fields)
+        mu_signed = q / p_sum if p_sum > 0 else 0.0
+        macro = dang_van(cycle.macro_history(body, mu_signed, params.macro_samples),
+                         alpha=params.alpha)
+        tau_smooth = macro.tau_dv                                        # (Nz, 1, ny')
+        lam_c = lam[2 - body]                                            # the counterface's
+        n_mu = micro_cycles(cycle, body, lam_c)
+        if rainflow:
+            m = dv.series.shape[0]
+            rough = rainflow_damage(dv.series.reshape(m, -1), params.woehler.damage)
+            rate = rough.reshape(dv.tau_dv.shape)
+        else:
+            rate = (params.woehler.damage(tau_smooth)
+                    + n_mu * params.woehler.damage(dv.tau_dv))
+        rate = np.broadcast_to(rate, bs.damage.shape).copy()
+        hardness = (cycle.scene.body1 if body == 1 else cycle.scene.body2).hardness
+        wear = archard_rate([f.pressure for f in fields], [f.solid for f in fields],
+                            [cycle.slip(body, f.t) for f in fields], g.dx, c.u_s, hardness,
+                            params.k_lub, params.f_w)
+        out.append(BodyCycle(damage_rate=rate, wear_rate=wear, tau_rough=dv.tau_dv,
+                             tau_smooth=tau_smooth, n_micro=n_mu, lam_c=lam_c))
+    return CycleResult(bodies=tuple(out), phi=phi, solid_fraction=solid, steps=cycle.steps,
+                       wall_s=time.perf_counter() - t0)
+
+
+def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray) -> None:
+    """Advance both bodies by ``n`` load cycles at the rates of ``result`` (in place):
+    Miner's rule, wear (heights down, damage columns up), then micropits (MODEL.md §4.4–§4.6)."""
+    for bs, bc in zip(state.bodies, result.bodies, strict=True):
+        bs.damage += n * bc.damage_rate
+        dh = n * bc.wear_rate
+        if dh.any():
+            bs.heights -= dh
+            bs.wear += dh
+            bs.damage = shift_columns(bs.damage, z, dh)
+        damage, depth, new = detach(bs.damage, z)
+        if new.any():
+            bs.damage = damage
+            bs.heights -= depth
+            bs.pit_depth += depth
+            bs.pitted |= new
+    state.cycles += n
+
+
+def _damage_rise(state: LifeState, result: CycleResult, n: float) -> float:
+    """Rise of the largest damage of the intact material over ``n`` cycles (points that reach
+    1 pit and leave the intact material)."""
+    rise = -math.inf
+    for bs, bc in zip(state.bodies, result.bodies, strict=True):
+        after = bs.damage + n * bc.damage_rate
+        intact = after < 1.0
+        top = float(after[intact].max()) if intact.any() else 0.0
+        rise = max(rise, top - float(bs.damage.max()))
+    return rise
+
+
+def sub_block_cycles(state: LifeState, result: CycleResult, left: float,
+                     params: LifeParams) -> float:
+    """Cycles of the next sub-block: the adaptive split (module docstring)."""
+    floor = params.block / params.max_splits
+    n = left
+    for bs, bc in zip(state.bodies, result.bodies, strict=True):
+        w = float(bc.wear_rate.max())
+        if w > 0 and bs.rq0 > 0:
+            n = min(n, params.max_wear_fraction * bs.rq0 / w)
+    n = max(n, min(floor, left))
+    while n > floor and _damage_rise(state, result, n) > params.max_damage_step:
+        n = max(0.5 * n, floor)
+    if left - n <= 1e-9 * params.block:
+        n = left
+    return min(n, left)
+
+
+def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
+              cycles: float | None = None) -> BlockRecord:
+    """One block of ΔN load cycles (or ``cycles``), split adaptively; appends and returns its
+    record."""
+    t0 = time.perf_counter()
+    left = params.block if cycles is None else cycles
+    subs, phi_acc, n_done = 0, 0.0, 0.0
+    result = None
+    while left > 0:
+        result = evaluate_cycle(cycle, state, params)
+        n = sub_block_cycles(state, result, left, params)
+        apply_cycles(state, result, n, cycle.z)
+        phi_acc += n * result.phi
+        n_done += n
+        left -= n
+        subs += 1
+    state.block += 1
+    b = state.bodies
+    rec = BlockRecord(
+        block=state.block, cycles=state.cycles, sub_blocks=subs, phi=phi_acc / n_done,
+        wall_s=time.perf_counter() - t0, Ap=(b[0].Ap, b[1].Ap),
+        max_damage=(float(b[0].damage.max()), float(b[1].damage.max())),
+        wear_mean=(float(b[0].wear.mean()), float(b[1].wear.mean())),
+        wear_max=(float(b[0].wear.max()), float(b[1].wear.max())),
+        Rq=(b[0].rq, b[1].rq),
+        n_micro=(result.bodies[0].n_micro, result.bodies[1].n_micro))
+    state.records.append(rec)
+    return rec
+
+
+def with_steps(cycle: PositionCycle, steps: int) -> PositionCycle:
+    """The same position and surfaces with another number of time steps (the rainflow
+    refinement)."""
+    return PositionCycle(cycle.study, cycle.position, surfaces=cycle.surfaces, steps=steps)
+

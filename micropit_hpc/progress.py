@@ -1,0 +1,132 @@
+"""Progress of a long run: a one-line bar on a terminal, plain lines in a batch log.
+
+Rank 0 only, by construction: the caller creates a :class:`Progress` on rank 0 and a
+:class:`NullProgress` (same API, does nothing) elsewhere. The estimate of the time left is the
+mean time per unit done so far in this run times the units left.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from collections.abc import Callable
+from typing import TextIO
+
+BAR_WIDTH = 24
+
+
+def format_duration(seconds: float) -> str:
+    """``H:MM:SS`` (hours unbounded), or ``?`` when not known."""
+    if seconds is None or not math.isfinite(seconds):
+        return "?"
+    s = max(0, round(seconds))
+    return f"{s // 3600}:{s // 60 % 60:02d}:{s % 60:02d}"
+
+
+class Progress:
+    """Report ``done`` out of ``total`` units (``label``: their name, e.g. ``"blocks"``).
+
+    ``tty``: bar with ``\\r`` (True) or plain lines (False); default: whether ``stream`` is a
+    terminal. ``min_interval_s``: the least time between two reports (default 0.2 s on a
+    terminal, 10 s in a log); the last one (``done == total``) is always written.
+    ``initial``: units already done when the run started (a restart), left out of the rate.
+    ``clock`` is injectable for tests.
+    """
+
+    def __init__(self, total: int, label: str, stream: TextIO | None = None,
+                 tty: bool | None = None, min_interval_s: float | None = None,
+                 initial: int = 0, clock: Callable[[], float] = time.monotonic):
+        self.total = int(total)
+        self.label = label
+        self.stream = sys.stderr if stream is None else stream
+        if tty is None:
+            isatty = getattr(self.stream, "isatty", None)
+            tty = bool(isatty and isatty())
+        self.tty = tty
+        self.min_interval_s = (min_interval_s if min_interval_s is not None
+                               else 0.2 if tty else 10.0)
+        self.initial = int(initial)
+        self.clock = clock
+        self.t0 = clock()
+        self._last_report = -math.inf
+        self._last_done: int | None = None
+        self._width = 0  # length of the bar now on the terminal line
+        self._open_line = False
+
+    def eta(self, done: int, now: float | None = None) -> float:
+        """Seconds left at ``done`` units: mean time per unit so far × units left (NaN before
+        the first unit of this run)."""
+        now = self.clock() if now is None else now
+        run = done - self.initial
+        if run <= 0:
+            return math.nan
+        return (now - self.t0) / run * max(0, self.total - done)
+
+    def line(self, done: int, note: str = "", now: float | None = None) -> str:
+        """The report at ``done`` units, without ``\\r`` or newline."""
+        now = self.clock() if now is None else now
+        pct = 100.0 * done / self.total if self.total else 100.0
+        elapsed = format_duration(now - self.t0)
+        eta = format_duration(self.eta(done, now))
+        tail = f" — {note}" if note else ""
+        if self.tty:
+            frac = min(done, self.total) / self.total if self.total else 1.0
+            fill = round(BAR_WIDTH * frac)
+            bar = "#" * fill + "-" * (BAR_WIDTH - fill)
+            return (f"{self.label} [{bar}] {done}/{self.total} {pct:3.0f}% {elapsed} "
+                    f"ETA {eta}{tail}")
+        return (f"[progress] {done}/{self.total} {self.label} ({pct:.0f}%) elapsed {elapsed} "
+                f"ETA {eta}{tail}")
+
+    def update(self, done: int, note: str = "") -> None:
+        """Report ``done`` units (rate-limited, except for the final report)."""
+        now = self.clock()
+        final = done >= self.total
+        if final and self._last_done == done:
+            return  # the final report once
+        if not final and now - self._last_report < self.min_interval_s:
+            return
+        text = self.line(done, note, now)
+        if self.tty:
+            pad = " " * max(0, self._width - len(text))
+            self.stream.write("\r" + text + pad + ("\n" if final else ""))
+            self._width = 0 if final else len(text)
+            self._open_line = not final
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+        self._last_report, self._last_done = now, done
+
+    def close(self) -> None:
+        """End the bar's line on a terminal (after an interrupted run)."""
+        if self._open_line:
+            self.stream.write("\n")
+            self.stream.flush()
+            self._open_line = False
+            self._width = 0
+
+    def __enter__(self) -> Progress:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+class NullProgress:
+    """The API of :class:`Progress` on ranks that do not report: does nothing."""
+
+    def __init__(self, *args, **kwargs):
+        pass
+
+    def update(self, done: int, note: str = "") -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+    def __enter__(self) -> NullProgress:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        pass

@@ -1,0 +1,194 @@
+"""A study: every work item of a scene, run block by block over groups of ranks (MODEL.md §5).
+
+A work item is one (position × wear coefficient × roughness scale × patch) with a stable id
+(position-major, in that order). Ranks split into groups of ``ranks_per_item`` contiguous ranks
+(:mod:`micropit_hpc.parallel.groups`); every rank computes the same assignment and each group's
+root runs its items. After every block the records are gathered on world rank 0. Results do not
+depend on the number of groups: an item's numbers come from its own seeds and its own block
+loop only.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from micropit_hpc.conditions import ContactStudy, contact_study
+from micropit_hpc.cycle import PositionCycle, body_surface, reference_half_width, window_grid
+from micropit_hpc.errors import MicropitError
+from micropit_hpc.life import (
+    BlockRecord,
+    LifeParams,
+    LifeState,
+    initial_state,
+    rainflow_steps,
+    run_block,
+)
+from micropit_hpc.scene import Scene
+
+__all__ = ["SUMMARY_COLUMNS", "ItemRun", "Study", "WorkItem", "summary_rows", "work_items"]
+
+SUMMARY_COLUMNS = ("item", "position", "S", "p0_GPa", "Lambda", "k_lub_s", "body", "cycles",
+                   "Ap_pct", "max_damage", "wear_um", "Rq_um")
+
+
+@dataclass(frozen=True)
+class WorkItem:
+    """One independent life simulation of a study."""
+
+    id: int
+    position: int
+    k_lub: float
+    scale: float
+    patch: int
+
+
+def work_items(scene: Scene, n_positions: int,
+               positions: Sequence[int] | None = None) -> list[WorkItem]:
+    """All work items, ids in the order position → k_lub → roughness scale → patch."""
+    chosen = range(1, n_positions + 1) if positions is None else positions
+    items = []
+    for pos in chosen:
+        for k in scene.wear.k_lub:
+            for s in scene.roughness_scale:
+                for p in range(scene.patches):
+                    items.append(WorkItem(len(items), pos, k, s, p))
+    return items
+
+
+def scaled_scene(scene: Scene, scale: float) -> Scene:
+    """The scene with both bodies' R_q multiplied by ``scale`` (Λ scales as 1/scale)."""
+    if scale == 1.0:
+        return scene
+    return replace(scene, body1=replace(scene.body1, Rq=scene.body1.Rq * scale),
+                   body2=replace(scene.body2, Rq=scene.body2.Rq * scale))
+
+
+class ItemRun:
+    """The cycle, parameters and evolving state of one work item."""
+
+    def __init__(self, scene: Scene, item: WorkItem, base: ContactStudy | None = None,
+                 log: Callable[[str], None] | None = None):
+        self.item = item
+        sc = scaled_scene(scene, item.scale)
+        study = contact_study(sc) if (base is None or item.scale != 1.0) else base
+        b_ref = reference_half_width(study)
+        grid = window_grid(sc, b_ref)
+        # the patch is made at scale 1 and scaled, so a measured map needs no R_q change
+        surfaces = tuple(body_surface(scene, i, grid, item.patch) for i in (1, 2))
+        if item.scale != 1.0:
+            surfaces = tuple(s.scaled_to_rq(s.rq * item.scale) if s.rq > 0 else s
+                             for s in surfaces)
+        self.cycle = PositionCycle(study, item.position, surfaces=surfaces)
+        self.params = LifeParams.from_scene(scene, item.k_lub)
+        if self.params.counting == "rainflow":
+            lam_c = min(s.peak_spacing_x() if s.rq > 0 else math.inf for s in surfaces)
+            m = rainflow_steps(self.cycle, lam_c)
+            if m > self.cycle.steps:
+                if log:
+                    log(f"item {item.id}: rainflow counting raises the time steps from "
+                        f"{self.cycle.steps} to {m} (slip per step ≤ λ_c/4, λ_c = "
+                        f"{lam_c * 1e6:.3g} µm)")
+                self.cycle = PositionCycle(study, item.position, surfaces=surfaces, steps=m)
+        self.state: LifeState = initial_state(self.cycle)
+
+    def run_block(self, cycles: float | None = None) -> BlockRecord:
+        return run_block(self.cycle, self.state, self.params, cycles)
+
+
+def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord],
+                 lambda_: float) -> list[tuple]:
+    """Rows of summary.csv (:data:`SUMMARY_COLUMNS`) for one item (contact conditions ``c``),
+    one per body and block."""
+    rows = []
+    for r in records:
+        for body in (1, 2):
+            rows.append((item.id, item.position, c.S, c.p0 / 1e9, lambda_, item.k_lub, body,
+                         r.cycles, r.Ap[body - 1], r.max_damage[body - 1],
+                         r.wear_mean[body - 1] * 1e6, r.Rq[body - 1] * 1e6))
+    return rows
+
+
+class Study:
+    """Run every work item of a scene on the ranks of ``comm`` (rank-group parallel)."""
+
+    def __init__(self, scene: Scene, comm, ranks_per_item: int = 1,
+                 positions: Sequence[int] | None = None,
+                 log: Callable[[str], None] | None = None):
+        from micropit_hpc.parallel.groups import assign_items, split_groups
+
+        self.scene, self.comm, self.log = scene, comm, log or (lambda s: None)
+        self.base = contact_study(scene)
+        n_pos = len(self.base.conditions)
+        if positions is not None:
+            bad = [p for p in positions if not 1 <= p <= n_pos]
+            if bad:
+                raise MicropitError(f"{scene.source}: position {bad[0]} does not exist (the "
+                                    f"scene has positions 1 to {n_pos})")
+        self.items = work_items(scene, n_pos, positions)
+        self.group = split_groups(comm, ranks_per_item)
+        self.assignment = assign_items(len(self.items), self.group.count)
+        self.mine = [self.items[i] for i in self.group.items(self.assignment)]
+        self.runs: dict[int, ItemRun] = {}
+        self.blocks = max(1, round(scene.life.cycles / scene.life.block))
+
+    def setup(self) -> None:
+        """Build this group's items (surfaces, solvers, fresh state)."""
+        for it in self.mine:
+            self.runs[it.id] = ItemRun(self.scene, it, self.base, self.log)
+
+    def block_cycles(self, k: int) -> float:
+        """Cycles of block k (1-based): ΔN, the last block shortened to the life."""
+        life = self.scene.life
+        return min(life.block, life.cycles - (k - 1) * life.block)
+
+    def run_block(self, k: int) -> dict[int, BlockRecord]:
+        """Block k of every item of this group; returns {item id: record} on every rank of
+        the world, gathered in item order."""
+        local = {}
+        for it in self.mine:
+            if self.group.is_root:
+                local[it.id] = self.runs[it.id].run_block(self.block_cycles(k))
+        gathered = self.comm.allgather(local)
+        out: dict[int, BlockRecord] = {}
+        for part in gathered:
+            out.update(part)
+        return dict(sorted(out.items()))
+
+    def window(self):
+        """(Grid, depth layers z) shared by every item of the study."""
+        from micropit_hpc.mechanics.halfspace import depth_layers
+
+        b_ref = reference_half_width(self.base)
+        st = self.scene.stress
+        return window_grid(self.scene, b_ref), depth_layers(st.layers, st.depth * b_ref,
+                                                            st.spacing)
+
+    def item_lambda(self, item: WorkItem) -> float:
+        return self.base.conditions[item.position - 1].Lambda / item.scale
+
+    def gather_maps(self) -> dict[int, dict[str, np.ndarray]]:
+        """The final maps of every item on world rank 0 (None elsewhere)."""
+        local = {}
+        if self.group.is_root:
+            for iid, run in self.runs.items():
+                maps = {}
+                for i, b in enumerate(run.state.bodies, start=1):
+                    maps[f"body{i}/heights"] = b.heights
+                    maps[f"body{i}/damage"] = b.damage
+                    maps[f"body{i}/damage_risk"] = b.damage.max(axis=0)
+                    maps[f"body{i}/pitted"] = b.pitted.astype(np.uint8)
+                    maps[f"body{i}/wear"] = b.wear
+                    maps[f"body{i}/pit_depth"] = b.pit_depth
+                local[iid] = maps
+        parts = self.comm.gather(local, root=0)
+        if self.comm.rank != 0:
+            return {}
+        out = {}
+        for part in parts:
+            out.update(part)
+        return dict(sorted(out.items()))
+

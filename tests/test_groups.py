@@ -1,0 +1,120 @@
+"""Work-item groups and the item assignment every rank computes alike (HPC.md §2, level 1)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from micropit_hpc.errors import MicropitError
+from micropit_hpc.parallel import SerialComm
+from micropit_hpc.parallel.groups import assign_items, split_groups
+
+
+class RecordingComm:
+    """A stand-in for one rank of a larger communicator that records its Split call."""
+
+    def __init__(self, rank, size):
+        self.rank, self.size, self.calls = rank, size, []
+
+    def Split(self, color=0, key=0):
+        self.calls.append((color, key))
+        return SerialComm()
+
+
+def test_serial_comm_is_one_group_of_one_rank():
+    world = SerialComm()
+    g = split_groups(world, 1)
+    assert (g.index, g.count, g.size, g.is_root) == (0, 1, 1, True)
+    assert g.world is world
+    assert g.comm.allreduce(7) == 7
+    assert (g.comm.Get_rank(), g.comm.Get_size()) == (0, 1)
+    assert g.items(assign_items(3, g.count)) == [0, 1, 2]
+
+
+@pytest.mark.parametrize("rank,per_item,color,count", [(0, 2, 0, 3), (3, 2, 1, 3), (5, 2, 2, 3),
+                                                       (5, 3, 1, 2), (5, 6, 0, 1)])
+def test_contiguous_ranks_form_a_group(rank, per_item, color, count):
+    comm = RecordingComm(rank, 6)
+    g = split_groups(comm, per_item)
+    assert comm.calls == [(color, rank)]  # color = rank // per_item, order kept by key
+    assert (g.index, g.count) == (color, count)
+
+
+@pytest.mark.parametrize("size,per_item,text", [(5, 2, "multiple of ranks_per_item"),
+                                                (4, 0, "at least 1"), (4, -1, "at least 1"),
+                                                (4, 1.5, "integer")])
+def test_impossible_splits_are_refused(size, per_item, text):
+    comm = RecordingComm(0, size)
+    with pytest.raises(MicropitError, match=text):
+        split_groups(comm, per_item)
+    assert comm.calls == []  # refused before any collective call
+
+
+def test_round_robin_without_costs():
+    assert assign_items(7, 3) == [[0, 3, 6], [1, 4], [2, 5]]
+    assert assign_items(2, 4) == [[0], [1], [], []]
+    assert assign_items(0, 2) == [[], []]
+
+
+def test_longest_first_greedy_by_cost():
+    # 5 -> g0; 3 -> g1; 3 -> g1 (3 < 5); 2 -> g0 (5 < 6); 2 -> g1 (6 < 7); 1 -> g0 (7 < 8)
+    assert assign_items(6, 2, [5, 3, 3, 2, 2, 1]) == [[0, 3, 5], [1, 2, 4]]
+    # The input order does not matter, only the costs (and item ids for ties).
+    assert assign_items(6, 2, [1, 2, 2, 3, 3, 5]) == [[0, 1, 5], [2, 3, 4]]
+
+
+def test_ties_go_to_the_lower_item_id_and_lower_group_index():
+    assert assign_items(4, 3, [1.0, 1.0, 1.0, 1.0]) == [[0, 3], [1], [2]]
+    assert assign_items(3, 3, [0.0, 0.0, 0.0]) == [[0], [1], [2]]
+
+
+def test_greedy_assignment_covers_every_item_once_and_balances():
+    rng = np.random.default_rng(3)
+    costs = rng.lognormal(0.0, 1.0, 200)
+    groups = assign_items(200, 7, costs)
+    flat = sorted(i for g in groups for i in g)
+    assert flat == list(range(200))
+    assert all(g == sorted(g) for g in groups)
+    loads = np.array([costs[g].sum() for g in groups])
+    # Longest-first is within one item's cost of the mean load (greedy list scheduling).
+    assert loads.max() <= costs.sum() / 7 + costs.max()
+    assert loads.max() - loads.min() < 0.5 * loads.mean()
+    assert groups == assign_items(200, 7, list(costs))  # pure: same input, same answer
+
+
+@pytest.mark.parametrize("n,groups,costs,text", [(3, 0, None, "at least 1"),
+                                                 (-1, 2, None, "negative"),
+                                                 (3, 2, [1.0, 2.0], "need 3 costs"),
+                                                 (2, 2, [1.0, -1.0], "non-negative"),
+                                                 (2, 2, [1.0, np.nan], "finite")])
+def test_bad_assignment_arguments(n, groups, costs, text):
+    with pytest.raises(MicropitError, match=text):
+        assign_items(n, groups, costs)
+
+
+def all_ranks_agree(comm, ok: bool) -> bool:
+    return all(comm.allgather(bool(ok)))
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.timeout(60)
+def test_groups_on_mpi_ranks():
+    from mpi4py import MPI
+
+    world = MPI.COMM_WORLD
+    size = world.size
+    ones = split_groups(world, 1)
+    ok = (ones.index == world.rank and ones.count == size and ones.size == 1 and ones.is_root)
+    whole = split_groups(world, size)
+    total = whole.comm.allreduce(world.rank + 1)
+    ok = ok and whole.count == 1 and whole.is_root == (world.rank == 0)
+    ok = ok and total == size * (size + 1) // 2 and whole.comm.rank == world.rank
+    assignment = assign_items(11, ones.count, costs=np.arange(11.0) % 4)
+    ok = ok and all(a == assignment for a in world.allgather(assignment))
+    mine = world.allgather(ones.items(assignment))
+    ok = ok and sorted(i for m in mine for i in m) == list(range(11))
+    ones.free()
+    whole.free()
+    assert all_ranks_agree(world, ok)
+    with pytest.raises(MicropitError, match="multiple"):
+        split_groups(world, size + 1)
