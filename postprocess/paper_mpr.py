@@ -1,0 +1,114 @@
+"""Compare `micropit run` results of the MPR scenes with the paper (MODEL.md §7 trends 1 and 7).
+
+    python postprocess/paper_mpr.py mpr RUN_DIR      # scenes/paper_mpr.toml: A_p vs |S|
+    python postprocess/paper_mpr.py table9 RUN_DIR   # scenes/paper_mpr_table9.toml: Λ scaling
+
+Reads RUN_DIR/summary.csv (body 1 = the test roller, where the paper measures A_p), writes the
+side-by-side table RUN_DIR/mpr_comparison.csv or RUN_DIR/table9_comparison.csv with the paper's
+validation/ numbers, prints it and the trend verdicts. Exit status 0 when every trend holds,
+1 otherwise (the table is written either way).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _rows(run: Path) -> list[dict]:
+    with open(run / "summary.csv", newline="") as fh:
+        return [r for r in csv.DictReader(fh) if r["body"] == "1"]
+
+
+def _ap(rows, **match) -> float | None:
+    for r in rows:
+        if all(abs(float(r[k]) - v) <= 1e-9 * max(1.0, abs(v)) for k, v in match.items()):
+            return float(r["Ap_pct"])
+    return None
+
+
+def _write(path: Path, header, table) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.writer(fh)
+        w.writerow(header)
+        w.writerows(table)
+    print(",".join(header))
+    for t in table:
+        print(",".join(str(x) for x in t))
+
+
+def mpr(run: Path) -> bool:
+    rows = _rows(run)
+    paper = list(csv.DictReader(open(ROOT / "validation" / "mpr_triple_disc_Ap.csv")))
+    table, ours = [], {}
+    for p in paper:
+        s, n = float(p["abs_S"]), float(p["cycles_million"]) * 1e6
+        ap = next((float(r["Ap_pct"]) for r in rows if abs(abs(float(r["S"])) - s) < 1e-9
+                   and abs(float(r["cycles"]) - n) < 1.0), None)
+        ours[(s, n)] = ap
+        table.append([s, p["cycles_million"], p["Ap_experiment_pct"], p["Ap_model_pct"],
+                      "" if ap is None else f"{ap:.4g}"])
+    _write(run / "mpr_comparison.csv",
+           ["abs_S", "cycles_million", "Ap_experiment_pct", "Ap_paper_model_pct", "Ap_ours_pct"],
+           table)
+    ok = True
+    for n in (6e6, 10e6):
+        a = [ours.get((s, n)) for s in (0.05, 0.15, 0.3)]
+        holds = None not in a and a[0] < a[1] < a[2]
+        ok &= holds
+        print(f"trend 1 at {n / 1e6:g} M: A_p(0.05) < A_p(0.15) < A_p(0.30): {a} -> "
+              f"{'holds' if holds else 'FAILS'}")
+    for s in (0.05, 0.15, 0.3):
+        a6, a10 = ours.get((s, 6e6)), ours.get((s, 10e6))
+        holds = None not in (a6, a10) and a10 >= a6
+        ok &= holds
+        print(f"trend 1: A_p(10 M) >= A_p(6 M) at |S| = {s}: {a6} -> {a10}: "
+              f"{'holds' if holds else 'FAILS'}")
+    return ok
+
+
+def table9(run: Path) -> bool:
+    rows = _rows(run)
+    n_end = max(float(r["cycles"]) for r in rows)
+    end = [r for r in rows if float(r["cycles"]) == n_end]
+    paper = list(csv.DictReader(open(ROOT / "validation" / "table9_Lambda_scaling_MPR.csv")))
+    lams = sorted({float(r["Lambda"]) for r in end})
+    table, res = [], {0.0: [], 1e-11: []}
+    for p, lam in zip(paper, lams, strict=False):
+        a0 = next(float(r["Ap_pct"]) for r in end
+                  if float(r["Lambda"]) == lam and float(r["k_lub_s"]) == 0.0)
+        a1 = next((float(r["Ap_pct"]) for r in end
+                   if float(r["Lambda"]) == lam and float(r["k_lub_s"]) == 1e-11), None)
+        res[0.0].append(a0)
+        res[1e-11].append(a1)
+        table.append([p["Lambda"], f"{lam:.4g}", p["Ap_pct_klub0"], f"{a0:.4g}",
+                      p["Ap_pct_klub1e-11"], "" if a1 is None else f"{a1:.4g}"])
+    _write(run / "table9_comparison.csv",
+           ["Lambda_paper", "Lambda_ours", "Ap_paper_klub0_pct", "Ap_ours_klub0_pct",
+            "Ap_paper_klub1e-11_pct", "Ap_ours_klub1e-11_pct"], table)
+    print(f"(A_p at {n_end / 1e6:g} M cycles)")
+    a = res[0.0]
+    t0 = a[0] > a[1] > a[2]
+    print(f"trend 7, k_lub = 0: A_p rises as Λ falls: {a} -> {'holds' if t0 else 'FAILS'}")
+    b = res[1e-11]
+    t1 = None not in b and b[1] > b[0] and b[1] > b[2]
+    print(f"trend 7, k_lub = 1e-11 s: A_p rises then falls as Λ falls (largest at the middle "
+          f"Λ): {b} -> {'holds' if t1 else 'FAILS'}")
+    return t0 and t1
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("which", choices=("mpr", "table9"))
+    ap.add_argument("run", type=Path, help="the run folder with summary.csv")
+    a = ap.parse_args()
+    ok = mpr(a.run) if a.which == "mpr" else table9(a.run)
+    return 0 if ok else 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

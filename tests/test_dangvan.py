@@ -1,0 +1,130 @@
+"""Dang Van (MODEL.md §4.3) against closed forms, and the enclosing ball against its optimality
+conditions."""
+
+import math
+
+import numpy as np
+import pytest
+
+from micropit_hpc.fatigue.dangvan import (
+    ALPHA_DV,
+    dang_van,
+    deviator_vectors,
+    enclosing_ball,
+    mesoscopic_shear,
+)
+from micropit_hpc.fatigue.sn import WoehlerLine
+
+
+def _voigt_tensor(v):
+    xx, yy, zz, yz, xz, xy = v
+    return np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
+
+
+def test_alpha_value():
+    assert ALPHA_DV == pytest.approx(0.2320508, abs=1e-7)
+
+
+def test_deviator_vector_norm_is_frobenius_of_deviator():
+    rng = np.random.default_rng(1)
+    sig = rng.normal(size=(6, 50))
+    v = deviator_vectors(sig)
+    for k in range(50):
+        t = _voigt_tensor(sig[:, k])
+        s = t - np.trace(t) / 3 * np.eye(3)
+        assert np.sum(v[:, k] ** 2) == pytest.approx(np.sum(s * s), rel=1e-12)
+
+
+def test_mesoscopic_shear_is_tresca_of_random_deviators():
+    rng = np.random.default_rng(2)
+    sig = rng.normal(size=(6, 200))
+    tau = mesoscopic_shear(deviator_vectors(sig))
+    for k in range(200):
+        ev = np.linalg.eigvalsh(_voigt_tensor(sig[:, k]))
+        assert tau[k] == pytest.approx((ev[-1] - ev[0]) / 2, rel=1e-9, abs=1e-12)
+
+
+@pytest.mark.parametrize("sa, ta", [(300e6, 200e6), (200e6, 300e6), (400e6, 50e6)])
+def test_closed_form_path_of_desimone(sa, ta):
+    """σ_x = σ_a(cos ωt − 1), τ_xy = τ_a sin ωt: τ̂ = ½√(σ_a² cos² + 4τ_a² sin²),
+    σ_H = (σ_a/3)(cos ωt − 1) ([D06] appendix; MODEL.md §4.3)."""
+    m = 72
+    w = 2 * np.pi * (np.arange(m) + 0.5) / m
+    h = np.zeros((m, 6, 1))
+    h[:, 0, 0] = sa * (np.cos(w) - 1)
+    h[:, 5, 0] = ta * np.sin(w)
+    r = dang_van(h, keep_series=True)
+    exact = (0.5 * np.sqrt(sa**2 * np.cos(w) ** 2 + 4 * ta**2 * np.sin(w) ** 2)
+             + ALPHA_DV * sa / 3 * (np.cos(w) - 1))
+    assert np.abs(r.series[:, 0] - exact).max() <= 1e-9 * sa
+    assert r.tau_dv[0] == pytest.approx(exact.max(), rel=1e-12)
+    # the samples lie on an ellipse centred where σ_x = −σ_a (symmetric set): the enclosing
+    # radius is the farthest sample from that centre, semi-axes σ_a√(2/3) and τ_a√2
+    far = np.sqrt((sa * math.sqrt(2 / 3) * np.cos(w)) ** 2 + (math.sqrt(2) * ta * np.sin(w)) ** 2)
+    assert r.radius[0] == pytest.approx(far.max(), rel=1e-9)
+
+
+def test_proportional_path_centre_is_the_midrange():
+    """σ(t) = σ_m + a(t) Σ with a ∈ [−1, 1]: the ball's centre is the mean deviator, τ̂ =
+    |a| Tresca(Σ)/2 and τ_DV = max(|a| T + α σ_H)."""
+    rng = np.random.default_rng(3)
+    mean = rng.normal(size=6) * 1e8
+    amp = rng.normal(size=6) * 1e8
+    a = np.sin(np.linspace(0, 2 * np.pi, 41))
+    h = (mean[None, :] + a[:, None] * amp[None, :])[:, :, None]
+    r = dang_van(h, keep_series=True)
+    ev = np.linalg.eigvalsh(_voigt_tensor(amp))
+    tresca = (ev[-1] - ev[0]) / 2
+    sh = (mean[:3].sum() + a * amp[:3].sum()) / 3
+    expect = np.abs(a) * tresca + ALPHA_DV * sh
+    np.testing.assert_allclose(r.series[:, 0], expect, rtol=0, atol=1e-6 * np.abs(amp).max())
+
+
+def test_enclosing_ball_optimality_on_random_clouds():
+    """KKT: every point inside, the centre in the convex hull of the points on the sphere; and
+    no other centre does better (random perturbations)."""
+    rng = np.random.default_rng(4)
+    p = rng.normal(size=(5, 20, 3000)) * rng.uniform(0.1, 10, size=(1, 1, 3000))
+    c, R, it = enclosing_ball(p, tol=1e-13)
+    d2 = ((p - c[:, None, :]) ** 2).sum(axis=0)
+    assert (d2 <= R**2 * (1 + 1e-9)).all()
+    assert it.max() < 60
+    for k in range(0, 3000, 97):
+        for _ in range(20):
+            cc = c[:, k] + rng.normal(size=5) * 1e-3 * R[k]
+            assert np.sqrt(((p[:, :, k] - cc[:, None]) ** 2).sum(axis=0)).max() >= R[k] * (
+                1 - 1e-12)
+
+
+def test_result_does_not_depend_on_the_batch():
+    rng = np.random.default_rng(5)
+    h = rng.normal(size=(20, 6, 500)) * 1e8
+    full = dang_van(h, chunk=512)
+    parts = np.concatenate([dang_van(h[:, :, i:i + 37], chunk=16).tau_dv
+                            for i in range(0, 500, 37)])
+    assert np.array_equal(full.tau_dv, parts)
+
+
+def test_constant_stress_has_no_shear_amplitude():
+    h = np.broadcast_to(np.array([1e8, -2e8, 3e7, 1e7, 0, 5e7])[None, :, None], (10, 6, 1))
+    r = dang_van(h)
+    assert r.radius[0] == 0.0
+    assert r.tau_dv[0] == pytest.approx(ALPHA_DV * (1e8 - 2e8 + 3e7) / 3, rel=1e-12)
+
+
+def test_history_shape_checked():
+    with pytest.raises(ValueError, match=r"\(m, 6, \.\.\.\)"):
+        dang_van(np.zeros((5, 3, 2)))
+
+
+def test_woehler_line_numbers_of_appendix_A4():
+    w = WoehlerLine()
+    np.testing.assert_allclose(w.strength([1e6, 3e6, 1e7]) * math.sqrt(3) / 1e6,
+                               [1047.4, 1003.4, 955.3], atol=0.1)
+    tau = np.array([400e6, 552e6, 700e6])
+    np.testing.assert_allclose(w.life(tau) * w.damage(tau), 1.0, rtol=1e-12)
+    np.testing.assert_allclose(w.life(w.strength(np.array([1e6, 1e7]))), [1e6, 1e7],
+                               rtol=1e-12)
+    assert w.damage(np.array([-1e6, 0.0])).tolist() == [0.0, 0.0]
+    with pytest.raises(ValueError, match="must be negative"):
+        WoehlerLine(A=40e6)

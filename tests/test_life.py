@@ -1,0 +1,200 @@
+"""The life loop at one contact point: Miner, wear, pits, moving damage columns, adaptive
+blocks (MODEL.md §4.4–§5)."""
+
+
+import numpy as np
+import pytest
+
+from micropit_hpc.conditions import contact_study
+from micropit_hpc.cycle import PositionCycle
+from micropit_hpc.life import (
+    BodyCycle,
+    CycleResult,
+    LifeParams,
+    apply_cycles,
+    evaluate_cycle,
+    initial_state,
+    micro_cycles,
+    run_block,
+)
+from micropit_hpc.pits import detach, layer_bottoms, shift_columns
+from micropit_hpc.scene import scene_from_dict
+from micropit_hpc.wear import archard_rate, to_material_frame
+
+
+def tiny_doc(slide_roll=(0.0, 0.3), k_lub=(0.0,)):
+    return {
+        "study": {"name": "tiny"},
+        "disc": {"p0_GPa": 1.1, "u_mean_m_s": 1.1, "slide_roll": list(slide_roll),
+                 "radius1_x_mm": 6.0, "radius2_x_mm": 27.075},
+        "body1": {"E_GPa": 210.0, "nu": 0.3, "Rq_um": 0.16,
+                  "surface": {"acf": "gaussian", "corr_x_um": 15.0}},
+        "body2": {"E_GPa": 210.0, "nu": 0.3, "Rq_um": 0.21,
+                  "surface": {"acf": "gaussian", "corr_x_um": 15.0}},
+        "lubricant": {"eta0_mPas": 3.1, "alpha_pv_1_per_GPa": 14.0, "eyring_stress_MPa": 5.0},
+        "film": {"hc_um": 0.037},
+        "window": {"n": 32, "steps": 8},
+        "stress": {"layers": 6},
+        "wear": {"k_lub_s": list(k_lub)},
+        "life": {"cycles_M": 2.0, "block_M": 1.0},
+    }
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    scene = scene_from_dict(tiny_doc(), "tiny.toml")
+    return scene, contact_study(scene)
+
+
+# ---- pits and damage columns ------------------------------------------------------------------
+def test_layer_bottoms():
+    np.testing.assert_allclose(layer_bottoms(np.array([0.0, 1.0, 4.0, 9.0])),
+                               [0.5, 2.5, 6.5, 11.5])
+
+
+def test_detach_removes_down_to_the_deepest_failed_layer():
+    z = np.array([0.0, 1.0, 4.0, 9.0])
+    D = np.zeros((4, 2, 1))
+    D[:, 0, 0] = [0.5, 1.2, 0.3, 0.1]
+    D[:, 1, 0] = [0.2, 0.2, 0.2, 0.2]
+    out, depth, new = detach(D, z)
+    assert new.ravel().tolist() == [True, False]
+    assert depth.ravel().tolist() == [2.5, 0.0]
+    # removed layers' damage discarded; material from 2.5 below comes up
+    np.testing.assert_allclose(out[:, 0, 0], [0.15, 0.25, 0.2, 0.1])
+    assert np.array_equal(out[:, 1, 0], D[:, 1, 0])
+    assert (out < 1).all()
+
+
+def test_shift_columns_moves_damage_up_and_is_exact_for_no_shift():
+    z = np.array([0.0, 1.0, 4.0, 9.0])
+    rng = np.random.default_rng(0)
+    D = rng.uniform(size=(4, 3, 2))
+    assert np.array_equal(shift_columns(D, z, np.zeros((3, 2))), D)
+    s = shift_columns(D, z, np.full((3, 2), 1.0))
+    np.testing.assert_allclose(s[0], D[1])                       # z=0 now holds z=1
+    np.testing.assert_allclose(s[1], D[1] + (D[2] - D[1]) / 3)   # z=1 holds z=2
+    np.testing.assert_allclose(s[3], D[3])                       # below: the deepest layer's
+    assert (s >= 0).all()
+
+
+# ---- wear ----------------------------------------------------------------------------------
+def test_material_frame_shift_conserves_and_stays_non_negative():
+    rng = np.random.default_rng(1)
+    f = np.where(rng.uniform(size=(32, 8)) > 0.7, rng.uniform(size=(32, 8)), 0.0)
+    for shift in (0.0, 0.3, -2.7, 13.25):
+        g = to_material_frame(f, shift * 1e-6, 1e-6)
+        assert g.sum() == pytest.approx(f.sum(), rel=1e-13)
+        assert (g >= 0).all()
+    assert np.array_equal(to_material_frame(f, 3e-6, 1e-6), np.roll(f, -3, axis=0))
+
+
+def test_archard_rate_formula():
+    """Uniform p, half the steps solid: Δh = ½ |u_s|/H · mean(k p), k = f_w k_lub or k_lub."""
+    p = np.full((8, 4), 2e9)
+    solid = [np.ones((8, 4), bool), np.zeros((8, 4), bool)]
+    dh = archard_rate([p, p], solid, [0.0, 1e-6], 1e-6, u_s=0.33, hardness=7e9, k_lub=1e-11,
+                      f_w=10.0)
+    expect = 0.5 * 0.33 / 7e9 * (10 * 1e-11 * 2e9 + 1e-11 * 2e9) / 2
+    np.testing.assert_allclose(dh, expect, rtol=1e-14)
+    assert not archard_rate([p], [solid[0]], [0.0], 1e-6, 0.0, 7e9, 1e-11, 10.0).any()
+
+
+# ---- Miner, wear and pits through apply_cycles -------------------------------------------------
+def _fake_result(shape, nz, d_rate, w_rate):
+    bodies = tuple(BodyCycle(damage_rate=np.full((nz, *shape), d_rate),
+                             wear_rate=np.full(shape, w_rate), tau_rough=np.zeros((nz, *shape)),
+                             tau_smooth=np.zeros(nz), n_micro=0.0, lam_c=np.inf)
+                   for _ in range(2))
+    return CycleResult(bodies=bodies, phi=0.0, solid_fraction=0.0, steps=1, wall_s=0.0)
+
+
+def test_miner_additivity(tiny):
+    """Two blocks of ΔN equal one block of 2ΔN when nothing changes (no pits, no wear)."""
+    scene, study = tiny
+    cyc = PositionCycle(study, 2)
+    res = evaluate_cycle(cyc, initial_state(cyc), LifeParams.from_scene(scene, 0.0))
+    scaled = CycleResult(bodies=tuple(BodyCycle(damage_rate=b.damage_rate / (10 * max(
+        b.damage_rate.max(), 1e-300)), wear_rate=b.wear_rate, tau_rough=b.tau_rough,
+        tau_smooth=b.tau_smooth, n_micro=b.n_micro, lam_c=b.lam_c) for b in res.bodies),
+        phi=res.phi, solid_fraction=res.solid_fraction, steps=res.steps, wall_s=0.0)
+    a, b = initial_state(cyc), initial_state(cyc)
+    apply_cycles(a, scaled, 2.0, cyc.z)
+    apply_cycles(b, scaled, 1.0, cyc.z)
+    apply_cycles(b, scaled, 1.0, cyc.z)
+    for x, y in zip(a.bodies, b.bodies, strict=True):
+        np.testing.assert_allclose(x.damage, y.damage, rtol=1e-15, atol=0)
+        assert x.damage.max() == pytest.approx(0.2)
+        assert not x.pitted.any()
+    assert a.cycles == b.cycles == 2.0
+
+
+def test_damage_column_moves_with_wear(tiny):
+    scene, study = tiny
+    cyc = PositionCycle(study, 2)
+    st = initial_state(cyc)
+    rng = np.random.default_rng(2)
+    for bs in st.bodies:
+        bs.damage[:] = rng.uniform(0, 0.5, size=bs.damage.shape)
+    before = [bs.damage.copy() for bs in st.bodies]
+    h0 = [bs.heights.copy() for bs in st.bodies]
+    delta = 0.5 * cyc.z[1]
+    apply_cycles(st, _fake_result(cyc.grid.shape, cyc.z.size, 0.0, delta / 1e6), 1e6, cyc.z)
+    for bs, d0, h in zip(st.bodies, before, h0, strict=True):
+        np.testing.assert_allclose(bs.damage, shift_columns(d0, cyc.z, np.full(h.shape, delta)),
+                                   rtol=1e-14)
+        np.testing.assert_allclose(h - bs.heights, delta, rtol=1e-9)
+        np.testing.assert_allclose(bs.wear, delta, rtol=1e-9)
+
+
+def test_zero_sliding_gives_no_micropits(tiny):
+    """S = 0: no micro-cycles (sliding counting), only the smooth macro cycle: A_p = 0."""
+    scene, study = tiny
+    cyc = PositionCycle(study, 1)
+    assert cyc.cond.S == 0.0
+    assert micro_cycles(cyc, 1, 20e-6) == 0.0
+    st = initial_state(cyc)
+    rec = run_block(cyc, st, LifeParams.from_scene(scene, 1e-11))
+    assert rec.Ap == (0.0, 0.0)
+    assert rec.max_damage[0] < 1e-6
+    assert rec.wear_max == (0.0, 0.0)              # no sliding, no Archard wear
+    assert all((bs.damage >= 0).all() for bs in st.bodies)
+
+
+def test_sliding_pits_and_worn_volume(tiny):
+    """S = 0.3 with wear: the heights lose exactly the wear plus the pit depths, the wear
+    equals the sum of the increments applied, damage stays in [0, 1)."""
+    scene, study = tiny
+    cyc = PositionCycle(study, 2)
+    prm = LifeParams.from_scene(scene, 1e-11)
+    st = initial_state(cyc)
+    h0 = [bs.heights.copy() for bs in st.bodies]
+    res = evaluate_cycle(cyc, st, prm)
+    assert res.bodies[0].n_micro > 0
+    increments = [np.zeros(cyc.grid.shape), np.zeros(cyc.grid.shape)]
+    for n in (2e5, 3e5):
+        res = evaluate_cycle(cyc, st, prm)
+        for i in range(2):
+            increments[i] += n * res.bodies[i].wear_rate
+        apply_cycles(st, res, n, cyc.z)
+    for bs, h, inc in zip(st.bodies, h0, increments, strict=True):
+        np.testing.assert_allclose(bs.wear, inc, rtol=1e-12, atol=0)
+        np.testing.assert_allclose(h - bs.heights, bs.wear + bs.pit_depth, rtol=1e-9,
+                                   atol=1e-18)
+        assert (bs.damage >= 0).all() and (bs.damage < 1).all()
+        assert bs.pitted.any() and bs.wear.max() > 0
+        assert np.array_equal(bs.pit_depth > 0, bs.pitted)
+
+
+def test_adaptive_split_for_wear_that_would_remove_the_roughness(tiny):
+    scene, study = tiny
+    cyc = PositionCycle(study, 2)
+    st = initial_state(cyc)
+    prm = LifeParams.from_scene(scene, 1e-8)       # removes microns per thousand cycles
+    res = evaluate_cycle(cyc, st, prm)
+    assert 1e6 * res.bodies[0].wear_rate.max() > 10 * st.bodies[0].rq0
+    rec = run_block(cyc, st, prm)
+    assert rec.sub_blocks == prm.max_splits
+    quiet = LifeParams.from_scene(scene, 0.0)
+    st2 = initial_state(PositionCycle(study, 1))
+    assert run_block(PositionCycle(study, 1), st2, quiet).sub_blocks == 1
