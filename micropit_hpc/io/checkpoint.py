@@ -34,6 +34,7 @@ import numpy as np
 
 from micropit_hpc import __version__
 from micropit_hpc.errors import MicropitError
+from micropit_hpc.io.snapshot import _h5py
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.report import write_text_atomic
 
@@ -99,15 +100,6 @@ class _Selection:
     @property
     def size(self) -> int:
         return int(np.prod(self.count))
-
-
-def _h5py():
-    try:
-        import h5py
-    except ImportError:  # pragma: no cover - h5py is part of the Debian stack
-        raise MicropitError("checkpoints need h5py (apt-get install python3-h5py-mpi; see "
-                            "docs/install.md)") from None
-    return h5py
 
 
 def _parallel(comm, h5py) -> bool:
