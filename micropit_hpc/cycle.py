@@ -260,12 +260,17 @@ class PositionCycle:
             macro = line_contact_stress(x, z, c.b, c.p0, mu_signed, b_body.nu)
             sigma += macro
         else:
-            field = self._macro_ellipse.get(body)
-            if field is None:
-                field = self._macro_ellipse[body] = EllipticalContactField(c.b, c.a, c.p0,
-                                                                           b_body.nu)
-            sigma += field.stress(x, g.y[None, None, :], z, mu_signed)
+            sigma += self._ellipse(body).stress(x, g.y[None, None, :], z, mu_signed)
         return sigma
+
+    def _ellipse(self, body: int) -> EllipticalContactField:
+        """The elliptical Hertz field of ``body`` (built once: it takes seconds)."""
+        field = self._macro_ellipse.get(body)
+        if field is None:
+            c = self.cond
+            nu = (self.scene.body1 if body == 1 else self.scene.body2).nu
+            field = self._macro_ellipse[body] = EllipticalContactField(c.b, c.a, c.p0, nu)
+        return field
 
     def macro_history(self, body: int, mu_signed: float, samples: int) -> np.ndarray:
         """The smooth load cycle of ``body`` (MODEL.md §4.4 "macro cycle"): the Hertz field with
@@ -279,11 +284,7 @@ class PositionCycle:
             sig = line_contact_stress(xs[:, None], self.z[None, :], c.b, c.p0, mu_signed,
                                       b_body.nu)[..., None, None]            # (6, n, Nz, 1, 1)
         else:
-            field = self._macro_ellipse.get(body)
-            if field is None:
-                field = self._macro_ellipse[body] = EllipticalContactField(c.b, c.a, c.p0,
-                                                                           b_body.nu)
-            sig = field.stress(xs[:, None, None], self.grid.y[None, None, :],
+            sig = self._ellipse(body).stress(xs[:, None, None], self.grid.y[None, None, :],
                                self.z[None, :, None], mu_signed)[:, :, :, None, :]
         sig = np.moveaxis(sig, 0, 1)
         return np.concatenate([sig, np.zeros((1, *sig.shape[1:]))])

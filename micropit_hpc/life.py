@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from micropit_hpc.conditions import ContactConditions
 from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.fatigue.dangvan import ALPHA_DV, dang_van
 from micropit_hpc.fatigue.rainflow import rainflow_damage
@@ -33,7 +34,7 @@ from micropit_hpc.wear import archard_rate
 
 __all__ = ["BlockRecord", "BodyCycle", "BodyState", "CycleResult", "LifeParams", "LifeState",
            "apply_cycles", "evaluate_cycle", "initial_state", "micro_cycles",
-           "rainflow_steps", "run_block", "sub_block_cycles", "with_steps"]
+           "rainflow_steps", "run_block", "sub_block_cycles"]
 
 
 @dataclass(frozen=True)
@@ -90,12 +91,11 @@ class BodyState:
 
 @dataclass
 class LifeState:
-    """Both bodies of a work item, the cycles done and the block records so far."""
+    """Both bodies of a work item, the cycles and blocks done."""
 
     bodies: tuple[BodyState, BodyState]
     cycles: float = 0.0
     block: int = 0
-    records: list[BlockRecord] = field(default_factory=list)
 
 
 @dataclass(frozen=True)
@@ -162,13 +162,12 @@ def micro_cycles(cycle: PositionCycle, body: int, lam_c: float) -> float:
     return 2.0 * c.b * abs(c.u1 - c.u2) / (u_i * lam_c)
 
 
-def rainflow_steps(cycle: PositionCycle, lam_c: float) -> int:
-    """Time steps for rainflow counting (MODEL.md §4.4): the relative slip per step 2b|S|/m must
-    not exceed λ_c/4, so m ≥ 8 b |S| / λ_c; never fewer than the scene's steps."""
-    c = cycle.cond
+def rainflow_steps(c: ContactConditions, steps: int, lam_c: float) -> int:
+    """Time steps for rainflow counting at contact ``c`` (MODEL.md §4.4): the relative slip per
+    step 2b|S|/m must not exceed λ_c/4, so m ≥ 8 b |S| / λ_c; never fewer than ``steps``."""
     if not math.isfinite(lam_c) or lam_c <= 0:
-        return cycle.steps
-    return max(cycle.steps, math.ceil(8.0 * c.b * abs(c.S) / lam_c - 1e-9))
+        return steps
+    return max(steps, math.ceil(8.0 * c.b * abs(c.S) / lam_c - 1e-9))
 
 
 def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -> CycleResult:
@@ -190,10 +189,9 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -
     solid = float(np.mean([f.solid.mean() for f in fields]))
     c = cycle.cond
     out = []
+    rainflow = params.counting == "rainflow"
     for body in (1, 2):
-        bs = state.bodies[body - 1]
         hist = np.stack([cycle.stresses(f, body) for f in fields])     # (m, 6, Nz, nx, ny)
-        rainflow = params.counting == "rainflow"
         dv = dang_van(hist, alpha=params.alpha, keep_series=rainflow)
         del hist
         q = sum(float((f.traction1 if body == 1 else f.traction2).sum()) for f in fields)
@@ -210,7 +208,6 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -
         else:
             rate = (params.woehler.damage(tau_smooth)
                     + n_mu * params.woehler.damage(dv.tau_dv))
-        rate = np.broadcast_to(rate, bs.damage.shape).copy()
         hardness = (cycle.scene.body1 if body == 1 else cycle.scene.body2).hardness
         wear = archard_rate([f.pressure for f in fields], [f.solid for f in fields],
                             [cycle.slip(body, f.t) for f in fields], g.dx, c.u_s, hardness,
@@ -271,8 +268,7 @@ def sub_block_cycles(state: LifeState, result: CycleResult, left: float,
 
 def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
               cycles: float | None = None) -> BlockRecord:
-    """One block of ΔN load cycles (or ``cycles``), split adaptively; appends and returns its
-    record."""
+    """One block of ΔN load cycles (or ``cycles``), split adaptively; returns its record."""
     t0 = time.perf_counter()
     left = params.block if cycles is None else cycles
     subs, phi_acc, n_done = 0, 0.0, 0.0
@@ -295,12 +291,6 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
         wear_max=(float(b[0].wear.max()), float(b[1].wear.max())),
         Rq=(b[0].rq, b[1].rq),
         n_micro=(result.bodies[0].n_micro, result.bodies[1].n_micro))
-    state.records.append(rec)
     return rec
 
-
-def with_steps(cycle: PositionCycle, steps: int) -> PositionCycle:
-    """The same position and surfaces with another number of time steps (the rainflow
-    refinement)."""
-    return PositionCycle(cycle.study, cycle.position, surfaces=cycle.surfaces, steps=steps)
 

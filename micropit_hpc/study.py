@@ -82,17 +82,16 @@ class ItemRun:
         if item.scale != 1.0:
             surfaces = tuple(s.scaled_to_rq(s.rq * item.scale) if s.rq > 0 else s
                              for s in surfaces)
-        self.cycle = PositionCycle(study, item.position, surfaces=surfaces)
         self.params = LifeParams.from_scene(scene, item.k_lub)
+        steps = scene.window.steps
         if self.params.counting == "rainflow":
             lam_c = min(s.peak_spacing_x() if s.rq > 0 else math.inf for s in surfaces)
-            m = rainflow_steps(self.cycle, lam_c)
-            if m > self.cycle.steps:
-                if log:
-                    log(f"item {item.id}: rainflow counting raises the time steps from "
-                        f"{self.cycle.steps} to {m} (slip per step ≤ λ_c/4, λ_c = "
-                        f"{lam_c * 1e6:.3g} µm)")
-                self.cycle = PositionCycle(study, item.position, surfaces=surfaces, steps=m)
+            steps = rainflow_steps(study.conditions[item.position - 1], steps, lam_c)
+            if steps > scene.window.steps and log:
+                log(f"item {item.id}: rainflow counting raises the time steps from "
+                    f"{scene.window.steps} to {steps} (slip per step ≤ λ_c/4, λ_c = "
+                    f"{lam_c * 1e6:.3g} µm)")
+        self.cycle = PositionCycle(study, item.position, surfaces=surfaces, steps=steps)
         self.state: LifeState = initial_state(self.cycle)
 
     def run_block(self, cycles: float | None = None) -> BlockRecord:

@@ -34,7 +34,7 @@ import numpy as np
 
 from micropit_hpc import __version__
 from micropit_hpc.errors import MicropitError
-from micropit_hpc.io.snapshot import _h5py
+from micropit_hpc.io.hdf5 import h5py_module as _h5py
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.report import write_text_atomic
 

@@ -8,7 +8,6 @@ in the HDF5 file, with units in each dataset's ``unit`` attribute.
 from __future__ import annotations
 
 import datetime as _dt
-import os
 from collections.abc import Mapping, Sequence
 from pathlib import Path
 
@@ -16,7 +15,7 @@ import numpy as np
 
 from micropit_hpc import __version__
 from micropit_hpc.errors import MicropitError
-from micropit_hpc.io.snapshot import _h5py, scene_json
+from micropit_hpc.io.hdf5 import atomic_h5, scene_json
 from micropit_hpc.report import write_text_atomic
 
 __all__ = ["write_results", "write_summary"]
@@ -43,11 +42,9 @@ def write_summary(path: str | Path, columns: Sequence[str], rows: Sequence[tuple
 def write_results(path: str | Path, study, records: Mapping[int, list],
                   maps: Mapping[int, Mapping[str, np.ndarray]], meta: Mapping[str, object]) -> Path:
     """results.h5: the items, their block histories and their final maps (docs/outputs.md)."""
-    h5py = _h5py()
     path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
     try:
-        with h5py.File(tmp, "w", driver=None) as f:
+        with atomic_h5(path) as f:
             f.attrs["code_version"] = __version__
             f.attrs["scene"] = scene_json(study.scene.document)
             f.attrs["scene_file"] = str(study.scene.source)
@@ -70,14 +67,11 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
             hist = f.create_group("history")
             for iid, recs in records.items():
                 g = hist.create_group(f"item_{iid:05d}")
-                g["block"] = np.array([r.block for r in recs])
-                g["cycles"] = np.array([r.cycles for r in recs])
-                g["sub_blocks"] = np.array([r.sub_blocks for r in recs])
-                g["phi"] = np.array([r.phi for r in recs])
-                g["wall_s"] = np.array([r.wall_s for r in recs])
-                for name, unit in (("Ap", "%"), ("max_damage", "1"), ("wear_mean", "m"),
-                                   ("wear_max", "m"), ("Rq", "m"), ("n_micro", "1")):
-                    g[name] = np.array([getattr(r, name) for r in recs])   # (blocks, 2)
+                for name, unit in (("block", "1"), ("cycles", "1"), ("sub_blocks", "1"),
+                                   ("phi", "1"), ("wall_s", "s"), ("Ap", "%"),
+                                   ("max_damage", "1"), ("wear_mean", "m"), ("wear_max", "m"),
+                                   ("Rq", "m"), ("n_micro", "1")):
+                    g[name] = np.array([getattr(r, name) for r in recs])  # (blocks[, 2 bodies])
                     g[name].attrs["unit"] = unit
             mg = f.create_group("maps")
             for iid, m in maps.items():
@@ -91,13 +85,6 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
             f["grid/dx"] = grid.dx
             f["grid/dy"] = grid.dy
             f.attrs["complete"] = 1
-            f.flush()
-        fd = os.open(tmp, os.O_RDONLY)
-        try:
-            os.fsync(fd)
-        finally:
-            os.close(fd)
-        os.replace(tmp, path)
     except OSError as e:
         raise MicropitError(f"cannot write {path}: {e.strerror or e}") from None
     return path
