@@ -92,12 +92,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     from micropit_hpc.io.results import write_results, write_summary
     from micropit_hpc.parallel import world
+    from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
+    from micropit_hpc.parallel.petsc import init_petsc, option, options_left_warning, stage
     from micropit_hpc.progress import NullProgress, Progress
+    from micropit_hpc.runner import RunOptions, run_study
     from micropit_hpc.scene import load_scene
-    from micropit_hpc.study import SUMMARY_COLUMNS, Study, summary_rows
+    from micropit_hpc.study import SUMMARY_COLUMNS, summary_rows
 
     comm = world()
     rank0 = comm.rank == 0
+    init_petsc(args.petsc_options)
     scene = load_scene(args.scene)
     out = Path(args.out)
     if rank0:
@@ -107,38 +111,74 @@ def _cmd_run(args: argparse.Namespace) -> int:
             raise MicropitError(f"cannot create --out {out}: {e.strerror or e}") from None
 
     def log(msg: str) -> None:
-        print(f"# {msg}", file=sys.stderr, flush=True)
+        if rank0:
+            print(f"# {msg}", file=sys.stderr, flush=True)
 
+    opts = RunOptions(
+        out=out, positions=None if args.position is None else tuple(args.position),
+        ranks_per_item=args.ranks_per_item, restart=args.restart, force=args.force,
+        max_wall_s=args.max_wall, stop_file=None if args.stop_file is None
+        else Path(args.stop_file), keep=option("micropit_checkpoint_keep", 3),
+        checkpoint_every=option("micropit_checkpoint_every", 1))
+    if opts.keep < 1 or opts.checkpoint_every < 1:
+        raise MicropitError("-micropit_checkpoint_keep and -micropit_checkpoint_every must be "
+                            f"at least 1, got {opts.keep} and {opts.checkpoint_every}")
     t0 = time.perf_counter()
-    study = Study(scene, comm, ranks_per_item=args.ranks_per_item, positions=args.position,
-                  log=log)
-    if rank0:
-        log(f"{scene.name}: {len(study.items)} work items, {study.blocks} blocks of "
-            f"{scene.life.block / 1e6:g} M cycles (life {scene.life.cycles / 1e6:g} M), "
-            f"{comm.size} ranks in {study.group.count} groups")
-    study.setup()
-    progress = (Progress(study.blocks, "blocks") if rank0 else NullProgress(study.blocks,
-                                                                             "blocks"))
-    records: dict[int, list] = {it.id: [] for it in study.items}
-    for k in range(1, study.blocks + 1):
-        for iid, rec in study.run_block(k).items():
-            records[iid].append(rec)
+    log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item, "
+        f"blocks of {scene.life.block / 1e6:g} M cycles to {scene.life.cycles / 1e6:g} M")
+    progress = [None]
+
+    def on_block(k: int, blocks: int, records: dict) -> None:
+        if progress[0] is None:
+            progress[0] = (Progress(blocks, "blocks") if rank0
+                           else NullProgress(blocks, "blocks"))
         ap = max((r[-1].Ap[0] for r in records.values() if r), default=0.0)
-        progress.update(k, f"{sum(len(r) for r in records.values())} item-blocks, "
-                           f"max A_p body 1 {ap:.3g} %")
-    progress.close()
-    maps = study.gather_maps()
-    if rank0:
-        rows = []
-        for it in study.items:
-            run_c = study.base.conditions[it.position - 1]
-            rows += summary_rows(it, run_c, records[it.id], study.item_lambda(it))
-        csv = write_summary(out / "summary.csv", SUMMARY_COLUMNS, rows)
-        h5 = write_results(out / "results.h5", study, records, maps,
-                           {"ranks": comm.size, "ranks_per_item": args.ranks_per_item,
-                            "wall_s": time.perf_counter() - t0})
-        log(f"wrote {csv} and {h5} in {time.perf_counter() - t0:.1f} s")
-    return 0
+        progress[0].update(k, f"{len(records)} items, max A_p body 1 {ap:.3g} %")
+
+    outcome = run_study(scene, opts, comm, log, on_block)
+    if progress[0] is not None:
+        progress[0].close()
+    study = outcome.study
+    with stage("results"):
+        maps = study.gather_maps()
+        if rank0:
+            rows = []
+            for it in study.items:
+                run_c = study.base.conditions[it.position - 1]
+                rows += summary_rows(it, run_c, outcome.records[it.id], study.item_lambda(it))
+            meta = {"ranks": comm.size, "ranks_per_item": args.ranks_per_item,
+                    "wall_s": time.perf_counter() - t0, "status": outcome.status,
+                    "blocks_done": outcome.blocks_done, "restarted_from_block":
+                    outcome.start_block}
+            csv = write_summary(out / "summary.csv", SUMMARY_COLUMNS, rows)
+            h5 = write_results(out / "results.h5", study, outcome.records, maps, meta)
+            what = ("results" if outcome.status == "done"
+                    else f"partial results (block {outcome.blocks_done} of {study.blocks})")
+            log(f"wrote {what}: {csv} and {h5} in {time.perf_counter() - t0:.1f} s")
+    options_left_warning(comm)
+    return EXIT_CHECKPOINTED if outcome.status == "stopped" else 0
+
+
+def _wall_time(text: str) -> float:
+    """Seconds from ``S``, ``M:S``, ``H:M:S`` or ``D-H:M:S`` (Slurm's forms)."""
+    try:
+        days = 0
+        if "-" in text:
+            d, text = text.split("-", 1)
+            days = int(d)
+        parts = [float(p) for p in text.split(":")]
+        if not 1 <= len(parts) <= 3 or any(p < 0 for p in parts):
+            raise ValueError
+        secs = 0.0
+        for p in parts:
+            secs = 60.0 * secs + p
+        secs += 86400.0 * days
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"expected seconds or [D-]H:M:S, got {text!r}") from None
+    if secs <= 0:
+        raise argparse.ArgumentTypeError(f"the wall-time budget must be positive, got {text!r}")
+    return secs
 
 
 def _cmd_check_env(args: argparse.Namespace) -> int:
@@ -172,6 +212,14 @@ def _positive_int(text: str) -> int:
     if not text.isdigit() or int(text) < 1:
         raise argparse.ArgumentTypeError(f"expected a positive whole number, got {text!r}")
     return int(text)
+
+
+def _petsc_values_ok(extra: list[str]) -> bool:
+    """True when ``extra`` reads as PETSc options: ``-name [value]`` pairs, values not
+    starting with ``--``."""
+    if not extra or not extra[0].startswith("-") or extra[0].startswith("--"):
+        return False
+    return not any(a.startswith("--") for a in extra)
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -222,7 +270,26 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--position", type=_positive_int, action="append", default=None,
                    metavar="K", help="only position K (repeat for several; default all)")
     p.add_argument("--ranks-per-item", type=_positive_int, default=1, metavar="R",
-                   help="ranks per work item group (default 1)")
+                   help="ranks per work item: each item's window is split over R ranks "
+                        "(default 1: items spread over all ranks)")
+    p.add_argument("--restart", action="store_true",
+                   help="resume from the newest complete checkpoint in DIR/checkpoints "
+                        "(any number of ranks); start afresh if there is none")
+    p.add_argument("--force", action="store_true",
+                   help="with --restart: accept a checkpoint written for a different scene "
+                        "(the work items and window must still match)")
+    p.add_argument("--max-wall", type=_wall_time, default=None, metavar="TIME",
+                   help="wall-time budget (seconds or [D-]H:M:S): stop at the block "
+                        "boundary where the next block would overrun it, checkpoint, exit 85")
+    p.add_argument("--stop-file", default=None, metavar="FILE",
+                   help="stop at the next block boundary once FILE exists (checkpoint, "
+                        "exit 85)")
+    p.epilog = ("Arguments after the options that start with '-' and are not micropit "
+                "options go to PETSc: -log_view (profile by stage), -options_left, "
+                "-micropit_checkpoint_keep K (checkpoints kept, default 3), "
+                "-micropit_checkpoint_every K (blocks between checkpoints, default 1). "
+                "SIGUSR1, SIGTERM, the stop file and --max-wall end the run at a block "
+                "boundary with a checkpoint and exit code 85 (jobs/ requeue on it).")
     p.set_defaults(func=_cmd_run)
 
     p = sub.add_parser("check-env", parents=[common],
@@ -244,7 +311,13 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        bad = [a for a in extra if not a.startswith("-") or a.startswith("--")]
+        if args.command != "run" or (bad and not _petsc_values_ok(extra)):
+            parser.error(f"unrecognized arguments: {' '.join(extra)}")
+    args.petsc_options = extra
     try:
         return args.func(args)
     except MicropitError as e:

@@ -24,6 +24,8 @@ from micropit_hpc.lubrication.mixed import MixedLubrication, MixedParameters
 from micropit_hpc.lubrication.rheology import calibrated_prefactor
 from micropit_hpc.mechanics.halfspace import HalfSpaceStress, depth_layers
 from micropit_hpc.mechanics.hertz_field import EllipticalContactField, line_contact_stress
+from micropit_hpc.parallel import SerialComm
+from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.scene import Body, Scene, check_mixed_inputs
 from micropit_hpc.spectral import Grid, fourier_shift, rfft_plan
 from micropit_hpc.surfaces import (
@@ -135,11 +137,16 @@ class StepFields:
 
 
 class PositionCycle:
-    """The window, surfaces and solvers of one position of a study (MODEL.md §4)."""
+    """The window, surfaces and solvers of one position of a study (MODEL.md §4).
+
+    ``comm``: the ranks of the work item's group (default: this rank alone). With several
+    ranks the contact of a step is solved on the group root and broadcast (it is 2-D and
+    small); the stresses are computed on each rank's x-slab (:attr:`slab`).
+    """
 
     def __init__(self, study: ContactStudy, position: int,
                  surfaces: tuple[Topography, Topography] | None = None,
-                 steps: int | None = None):
+                 steps: int | None = None, comm=None):
         scene = study.scene
         if not 1 <= position <= len(study.conditions):
             raise MicropitError(f"{scene.source}: position {position} does not exist (the "
@@ -172,6 +179,7 @@ class PositionCycle:
                 R=c.R, b=c.b, u1=c.u1, u2=c.u2, h_mean=c.hc, E_prime=study.E_prime, params=prm)
         st = scene.stress
         self.z = depth_layers(st.layers, st.depth * self.b_ref, st.spacing)
+        self.slab = Slab(SerialComm() if comm is None else comm, g, self.z.size)
         self._micro: dict[int, HalfSpaceStress] = {}
         self._macro_ellipse: dict[int, EllipticalContactField] = {}
         self._traction_spectra: tuple = (None, None, None)
@@ -205,7 +213,22 @@ class PositionCycle:
 
     # ---- one step ----------------------------------------------------------------------------
     def solve_step(self, step: int, p_init: np.ndarray | None = None) -> StepFields:
-        """Contact at time step ``step`` (MODEL.md §4.1)."""
+        """Contact at time step ``step`` (MODEL.md §4.1); collective over the group: the
+        root solves and every rank gets its fields."""
+        if self.slab.comm.size == 1:
+            return self._solve_step(step, p_init)
+        fields, error = None, None
+        if self.slab.is_root:
+            try:
+                fields = self._solve_step(step, p_init)
+            except MicropitError as e:
+                error = e
+        fields, error = self.slab.bcast((fields, error))
+        if error is not None:
+            raise error
+        return fields
+
+    def _solve_step(self, step: int, p_init: np.ndarray | None) -> StepFields:
         g, c, lub = self.grid, self.cond, self.scene.lubrication
         t = self.time(step)
         x_c = self.centre(t)
@@ -235,26 +258,29 @@ class PositionCycle:
 
     # ---- stresses ----------------------------------------------------------------------------
     def stresses(self, fields: StepFields, body: int) -> np.ndarray:
-        """σ (Voigt xx, yy, zz, yz, xz, xy; shape (6, N_z, nx, ny)) in the material frame of
+        """σ (Voigt xx, yy, zz, yz, xz, xy; shape (6, N_z, nx, ny), on a slab of several ranks
+        only its rows: (6, N_z, len(slab.rows), ny)) in the material frame of
         ``body`` at the step of ``fields`` (MODEL.md §4.2): the micro field of the pressure and
         traction fluctuations (Fourier kernels, App. A.1) plus the macro Hertz field with the
         mean traction μ̄ p_H at each material point's actual position x_c + x + (u_i − ū)t."""
         g, c = self.grid, self.cond
         b_body = self.scene.body1 if body == 1 else self.scene.body2
+        slab = self.slab
         micro = self._micro.get(body)
         if micro is None:
-            micro = self._micro[body] = HalfSpaceStress(g, self.z, b_body.nu)
+            micro = self._micro[body] = HalfSpaceStress(g, self.z, b_body.nu, slab)
         q = fields.traction1 if body == 1 else fields.traction2
         shift = -self.slip(body, fields.t)          # window frame -> material frame
         if self._traction_spectra[0] is not fields:   # both bodies share p̂ and ±q̂
-            fft = self._fft
-            self._traction_spectra = (fields, fft.forward(-fields.pressure),
-                                      fft.forward(-fields.traction1))
+            rows = slab.rows
+            self._traction_spectra = (fields, slab.forward(-fields.pressure[rows]),
+                                      slab.forward(-fields.traction1[rows]))
         _, P_hat, T1_hat = self._traction_spectra
         T_hat = T1_hat if body == 1 else -T1_hat
-        sigma = micro.stresses(fourier_shift(P_hat, g, shift), fourier_shift(T_hat, g, shift))
+        sigma = micro.stresses(fourier_shift(P_hat, g, shift, cols=slab.cols),
+                               fourier_shift(T_hat, g, shift, cols=slab.cols))
         mu_signed = float(q.sum() / fields.pressure.sum()) if fields.pressure.any() else 0.0
-        x = (fields.x_c + g.x - shift)[None, :, None]
+        x = (fields.x_c + g.x[slab.rows] - shift)[None, :, None]
         z = self.z[:, None, None]
         if c.geometry == "line":
             macro = line_contact_stress(x, z, c.b, c.p0, mu_signed, b_body.nu)

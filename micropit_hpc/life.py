@@ -28,6 +28,7 @@ from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.fatigue.dangvan import ALPHA_DV, dang_van
 from micropit_hpc.fatigue.rainflow import rainflow_damage
 from micropit_hpc.fatigue.sn import WoehlerLine
+from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.pits import detach, shift_columns
 from micropit_hpc.surfaces import Topography
 from micropit_hpc.wear import archard_rate
@@ -67,7 +68,8 @@ class BodyState:
     """The evolving state of one body of a work item (material frame, SI).
 
     ``heights`` (n_x, n_y): the surface; ``damage`` (N_z, n_x, n_y): Miner damage on the layers
-    below the local surface; ``pitted``: columns that have lost material to a micropit;
+    below the local surface (in a group of several ranks: this rank's slab rows only);
+    ``pitted``: columns that have lost material to a micropit;
     ``wear``: cumulative wear depth; ``pit_depth``: cumulative depth lost to pits; ``rq0``: the
     initial R_q (the split criterion's yardstick).
     """
@@ -143,9 +145,10 @@ class BlockRecord:
 
 
 def initial_state(cycle: PositionCycle) -> LifeState:
-    """Fresh bodies on the cycle's surfaces: no damage, no wear, no pits."""
-    g, nz = cycle.grid, cycle.z.size
-    bodies = tuple(BodyState(heights=s.heights.copy(), damage=np.zeros((nz, *g.shape)),
+    """Fresh bodies on the cycle's surfaces: no damage, no wear, no pits. The damage holds
+    this rank's slab rows (:attr:`PositionCycle.slab`), the 2-D fields the whole window."""
+    g = cycle.grid
+    bodies = tuple(BodyState(heights=s.heights.copy(), damage=np.zeros(cycle.slab.local_shape),
                              pitted=np.zeros(g.shape, bool), wear=np.zeros(g.shape),
                              pit_depth=np.zeros(g.shape), rq0=s.rq)
                    for s in cycle.surfaces)
@@ -218,39 +221,47 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -
                        wall_s=time.perf_counter() - t0)
 
 
-def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray) -> None:
+def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
+                 slab: Slab | None = None) -> None:
     """Advance both bodies by ``n`` load cycles at the rates of ``result`` (in place):
-    Miner's rule, wear (heights down, damage columns up), then micropits (MODEL.md §4.4–§4.6)."""
+    Miner's rule, wear (heights down, damage columns up), then micropits (MODEL.md §4.4–§4.6).
+    ``slab``: the rows of the damage this rank holds (default: the whole window); the pits
+    found on each slab are shared so that every rank keeps the whole surface. Collective."""
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
+        rows = slice(None) if slab is None else slab.rows
         bs.damage += n * bc.damage_rate
         dh = n * bc.wear_rate
         if dh.any():
             bs.heights -= dh
             bs.wear += dh
-            bs.damage = shift_columns(bs.damage, z, dh)
+            bs.damage = shift_columns(bs.damage, z, dh[rows])
         damage, depth, new = detach(bs.damage, z)
+        bs.damage = damage
+        if slab is not None:
+            depth, new = slab.allgather_rows(depth), slab.allgather_rows(new)
         if new.any():
-            bs.damage = damage
             bs.heights -= depth
             bs.pit_depth += depth
             bs.pitted |= new
     state.cycles += n
 
 
-def _damage_rise(state: LifeState, result: CycleResult, n: float) -> float:
+def _damage_rise(state: LifeState, result: CycleResult, n: float,
+                 slab: Slab | None = None) -> float:
     """Rise of the largest damage of the intact material over ``n`` cycles (points that reach
-    1 pit and leave the intact material)."""
+    1 pit and leave the intact material); over the whole group when ``slab`` is given."""
+    group_max = (lambda v: v) if slab is None else slab.max
     rise = -math.inf
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
         after = bs.damage + n * bc.damage_rate
         intact = after < 1.0
-        top = float(after[intact].max()) if intact.any() else 0.0
-        rise = max(rise, top - float(bs.damage.max()))
+        top = group_max(float(after[intact].max()) if intact.any() else 0.0)
+        rise = max(rise, top - group_max(float(bs.damage.max())))
     return rise
 
 
 def sub_block_cycles(state: LifeState, result: CycleResult, left: float,
-                     params: LifeParams) -> float:
+                     params: LifeParams, slab: Slab | None = None) -> float:
     """Cycles of the next sub-block: the adaptive split (module docstring)."""
     floor = params.block / params.max_splits
     n = left
@@ -259,7 +270,7 @@ def sub_block_cycles(state: LifeState, result: CycleResult, left: float,
         if w > 0 and bs.rq0 > 0:
             n = min(n, params.max_wear_fraction * bs.rq0 / w)
     n = max(n, min(floor, left))
-    while n > floor and _damage_rise(state, result, n) > params.max_damage_step:
+    while n > floor and _damage_rise(state, result, n, slab) > params.max_damage_step:
         n = max(0.5 * n, floor)
     if left - n <= 1e-9 * params.block:
         n = left
@@ -268,15 +279,16 @@ def sub_block_cycles(state: LifeState, result: CycleResult, left: float,
 
 def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
               cycles: float | None = None) -> BlockRecord:
-    """One block of ΔN load cycles (or ``cycles``), split adaptively; returns its record."""
+    """One block of ΔN load cycles (or ``cycles``), split adaptively; returns its record.
+    Collective over the cycle's group (every rank returns the same record)."""
     t0 = time.perf_counter()
     left = params.block if cycles is None else cycles
     subs, phi_acc, n_done = 0, 0.0, 0.0
     result = None
     while left > 0:
         result = evaluate_cycle(cycle, state, params)
-        n = sub_block_cycles(state, result, left, params)
-        apply_cycles(state, result, n, cycle.z)
+        n = sub_block_cycles(state, result, left, params, cycle.slab)
+        apply_cycles(state, result, n, cycle.z, cycle.slab)
         phi_acc += n * result.phi
         n_done += n
         left -= n
@@ -286,7 +298,7 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
     rec = BlockRecord(
         block=state.block, cycles=state.cycles, sub_blocks=subs, phi=phi_acc / n_done,
         wall_s=time.perf_counter() - t0, Ap=(b[0].Ap, b[1].Ap),
-        max_damage=(float(b[0].damage.max()), float(b[1].damage.max())),
+        max_damage=(cycle.slab.max(b[0].damage.max()), cycle.slab.max(b[1].damage.max())),
         wear_mean=(float(b[0].wear.mean()), float(b[1].wear.mean())),
         wear_max=(float(b[0].wear.max()), float(b[1].wear.max())),
         Rq=(b[0].rq, b[1].rq),

@@ -211,8 +211,11 @@ def rfft_plan(shape: tuple[int, int], batch: int | None = None) -> RealFFT2:
     return plan
 
 
-def fourier_shift(spectrum: np.ndarray, grid: Grid, sx: float, sy: float = 0.0) -> np.ndarray:
+def fourier_shift(spectrum: np.ndarray, grid: Grid, sx: float, sy: float = 0.0,
+                  cols: slice | None = None) -> np.ndarray:
     """Half spectrum of the field translated by (sx, sy): f(x − sx, y − sy), exactly (periodic).
+
+    ``cols``: the k_y columns that ``spectrum`` holds (a slab's part of the half spectrum).
 
     Multiplies by e^{−i k_x s_x} e^{−i k_y s_y}. On an even-sized axis the Nyquist wave cannot
     tell +k from −k; its factor is taken as cos(k s), the symmetric band-limited choice, which
@@ -224,5 +227,5 @@ def fourier_shift(spectrum: np.ndarray, grid: Grid, sx: float, sy: float = 0.0) 
         px[grid.nx // 2] = px[grid.nx // 2].real
     if grid.ny % 2 == 0:
         py[:, -1] = py[:, -1].real
-    phase = px * py
+    phase = px * (py if cols is None else py[:, cols])
     return spectrum * phase

@@ -3,9 +3,11 @@
 A work item is one (position × wear coefficient × roughness scale × patch) with a stable id
 (position-major, in that order). Ranks split into groups of ``ranks_per_item`` contiguous ranks
 (:mod:`micropit_hpc.parallel.groups`); every rank computes the same assignment and each group's
-root runs its items. After every block the records are gathered on world rank 0. Results do not
-depend on the number of groups: an item's numbers come from its own seeds and its own block
-loop only.
+ranks run its items together (:mod:`micropit_hpc.parallel.slab`: the group root solves the
+contact, every rank its x-slab of the stresses, Dang Van and damage). After every block the
+records are gathered on every rank. Results do not depend on the number of groups: an item's
+numbers come from its own seeds and its own block loop only (bitwise); with several ranks per
+item they equal one rank's to round-off.
 """
 
 from __future__ import annotations
@@ -71,7 +73,7 @@ class ItemRun:
     """The cycle, parameters and evolving state of one work item."""
 
     def __init__(self, scene: Scene, item: WorkItem, base: ContactStudy | None = None,
-                 log: Callable[[str], None] | None = None):
+                 log: Callable[[str], None] | None = None, comm=None):
         self.item = item
         sc = scaled_scene(scene, item.scale)
         study = contact_study(sc) if (base is None or item.scale != 1.0) else base
@@ -87,11 +89,12 @@ class ItemRun:
         if self.params.counting == "rainflow":
             lam_c = min(s.peak_spacing_x() if s.rq > 0 else math.inf for s in surfaces)
             steps = rainflow_steps(study.conditions[item.position - 1], steps, lam_c)
-            if steps > scene.window.steps and log:
+            if steps > scene.window.steps and log and (comm is None or comm.rank == 0):
                 log(f"item {item.id}: rainflow counting raises the time steps from "
                     f"{scene.window.steps} to {steps} (slip per step ≤ λ_c/4, λ_c = "
                     f"{lam_c * 1e6:.3g} µm)")
-        self.cycle = PositionCycle(study, item.position, surfaces=surfaces, steps=steps)
+        self.cycle = PositionCycle(study, item.position, surfaces=surfaces, steps=steps,
+                                   comm=comm)
         self.state: LifeState = initial_state(self.cycle)
 
     def run_block(self, cycles: float | None = None) -> BlockRecord:
@@ -112,7 +115,11 @@ def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord],
 
 
 class Study:
-    """Run every work item of a scene on the ranks of ``comm`` (rank-group parallel)."""
+    """Run every work item of a scene on the ranks of ``comm`` (rank-group parallel).
+
+    Items go round robin to the groups, or longest-first by cost through :meth:`assign` (a
+    restart uses the last block's times). The assignment never changes the numbers.
+    """
 
     def __init__(self, scene: Scene, comm, ranks_per_item: int = 1,
                  positions: Sequence[int] | None = None,
@@ -129,15 +136,24 @@ class Study:
                                     f"scene has positions 1 to {n_pos})")
         self.items = work_items(scene, n_pos, positions)
         self.group = split_groups(comm, ranks_per_item)
-        self.assignment = assign_items(len(self.items), self.group.count)
+        self.assignment = assign_items(len(self.items), self.group.count)  # round robin
         self.mine = [self.items[i] for i in self.group.items(self.assignment)]
         self.runs: dict[int, ItemRun] = {}
         self.blocks = max(1, round(scene.life.cycles / scene.life.block))
 
+    def assign(self, costs: Sequence[float]) -> None:
+        """Assign the items longest-first by ``costs`` (before :meth:`setup`)."""
+        from micropit_hpc.parallel.groups import assign_items
+
+        if self.runs:
+            raise MicropitError("items can only be reassigned before setup()")
+        self.assignment = assign_items(len(self.items), self.group.count, costs)
+        self.mine = [self.items[i] for i in self.group.items(self.assignment)]
+
     def setup(self) -> None:
-        """Build this group's items (surfaces, solvers, fresh state)."""
+        """Build this group's items (surfaces, solvers, fresh state). Collective."""
         for it in self.mine:
-            self.runs[it.id] = ItemRun(self.scene, it, self.base, self.log)
+            self.runs[it.id] = ItemRun(self.scene, it, self.base, self.log, self.group.comm)
 
     def block_cycles(self, k: int) -> float:
         """Cycles of block k (1-based): ΔN, the last block shortened to the life."""
@@ -149,8 +165,9 @@ class Study:
         the world, gathered in item order."""
         local = {}
         for it in self.mine:
+            rec = self.runs[it.id].run_block(self.block_cycles(k))
             if self.group.is_root:
-                local[it.id] = self.runs[it.id].run_block(self.block_cycles(k))
+                local[it.id] = rec
         gathered = self.comm.allgather(local)
         out: dict[int, BlockRecord] = {}
         for part in gathered:
@@ -172,16 +189,18 @@ class Study:
     def gather_maps(self) -> dict[int, dict[str, np.ndarray]]:
         """The final maps of every item on world rank 0 (None elsewhere)."""
         local = {}
-        if self.group.is_root:
-            for iid, run in self.runs.items():
-                maps = {}
-                for i, b in enumerate(run.state.bodies, start=1):
+        for iid, run in self.runs.items():
+            maps = {}
+            for i, b in enumerate(run.state.bodies, start=1):
+                damage = run.cycle.slab.gather(b.damage)
+                if self.group.is_root:
                     maps[f"body{i}/heights"] = b.heights
-                    maps[f"body{i}/damage"] = b.damage
-                    maps[f"body{i}/damage_risk"] = b.damage.max(axis=0)
+                    maps[f"body{i}/damage"] = damage
+                    maps[f"body{i}/damage_risk"] = damage.max(axis=0)
                     maps[f"body{i}/pitted"] = b.pitted.astype(np.uint8)
                     maps[f"body{i}/wear"] = b.wear
                     maps[f"body{i}/pit_depth"] = b.pit_depth
+            if self.group.is_root:
                 local[iid] = maps
         parts = self.comm.gather(local, root=0)
         if self.comm.rank != 0:

@@ -39,7 +39,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from micropit_hpc.spectral import Grid, rfft_plan
+from micropit_hpc.spectral import Grid
 
 __all__ = ["VOIGT", "HalfSpaceStress", "depth_layers"]
 
@@ -134,6 +134,11 @@ class HalfSpaceStress:
     Results are float64 arrays of shape (6, N_z, nx, ny), Voigt order (xx, yy, zz, yz, xz, xy),
     tension positive. The mean mode is excluded: each layer has zero mean.
 
+    ``slab`` (:class:`~micropit_hpc.parallel.slab.Slab`): with a group of several ranks, this
+    rank keeps the kernels of its k_y columns only and returns its x rows only,
+    (6, N_z, len(slab.rows), ny); the transforms are mpi4py-fft's. Default: one rank, the whole
+    window, pyFFTW.
+
     Memory: two real per-layer factors (2·N_z·nx·(ny/2+1) float64: 34 MB at 256² × 32 layers,
     135 MB at 512² × 32) plus 22 complex half-spectrum planes of scratch (and the cached plans'
     buffers); the inverse transforms go layer by layer through one batch-6 plan, so no
@@ -141,7 +146,7 @@ class HalfSpaceStress:
     benchmarks/README.md).
     """
 
-    def __init__(self, grid: Grid, z, nu: float):
+    def __init__(self, grid: Grid, z, nu: float, slab=None):
         z = np.atleast_1d(np.asarray(z, dtype=float))
         if z.ndim != 1 or not np.all(np.isfinite(z)) or np.any(z < 0):
             raise ValueError("z must be a 1-D array of finite, non-negative depths")
@@ -150,29 +155,37 @@ class HalfSpaceStress:
         self.grid = grid
         self.z = z
         self.nu = float(nu)
+        if slab is None:
+            from micropit_hpc.parallel import SerialComm
+            from micropit_hpc.parallel.slab import Slab
+
+            slab = Slab(SerialComm(), grid, z.size)
+        self.slab = slab
+        cols = slab.cols
         nx, nyh = grid.spectral_shape
-        zeta = grid.kappa
+        zeta = grid.kappa[:, cols]
+        ncols = zeta.shape[1]
         mask = zeta > 0
         inv = np.divide(1.0, zeta, out=np.zeros_like(zeta), where=mask)
         # angle factors α/ζ, β/ζ (0 at the excluded mean mode)
         self._a = np.ascontiguousarray(np.broadcast_to(grid.kx, zeta.shape) * inv)
-        self._b = np.ascontiguousarray(np.broadcast_to(grid.ky, zeta.shape) * inv)
+        self._b = np.ascontiguousarray(np.broadcast_to(grid.ky[:, cols], zeta.shape) * inv)
         # per-layer factors e^{−ζz} and ζz e^{−ζz}; zero at the mean mode (excluded)
         t = zeta[None] * z[:, None, None]
         self._E = np.exp(-t)
-        self._E[:, 0, 0] = 0.0
+        if cols.start == 0:
+            self._E[:, 0, 0] = 0.0
         self._F = t * self._E
         # Nyquist row/column of even axes: kernels are averaged over ±k there (module docstring)
         self._nyq_row = nx // 2 if grid.nx % 2 == 0 else None
-        self._nyq_col = nyh - 1 if grid.ny % 2 == 0 else None
+        last = nyh - 1 - cols.start
+        self._nyq_col = last if grid.ny % 2 == 0 and 0 <= last < ncols else None
         # scratch
-        self._A = np.empty((6, nx, nyh), dtype=complex)
-        self._B = np.empty((6, nx, nyh), dtype=complex)
-        self._C = np.empty((6, nx, nyh), dtype=complex)
-        self._T = np.empty((nx, nyh), dtype=complex)
-        self._spec = np.empty((3, nx, nyh), dtype=complex)
-        self._inv6 = rfft_plan(grid.shape, batch=6)
-        self._fwd = rfft_plan(grid.shape)
+        self._A = np.empty((6, nx, ncols), dtype=complex)
+        self._B = np.empty((6, nx, ncols), dtype=complex)
+        self._C = np.empty((6, nx, ncols), dtype=complex)
+        self._T = np.empty((nx, ncols), dtype=complex)
+        self._spec = np.empty((3, nx, ncols), dtype=complex)
 
     @property
     def n_layers(self) -> int:
@@ -180,8 +193,8 @@ class HalfSpaceStress:
 
     @property
     def shape(self) -> tuple[int, int, int, int]:
-        """Shape of a result: (6, N_z, nx, ny)."""
-        return (6, self.z.size, self.grid.nx, self.grid.ny)
+        """Shape of a result: (6, N_z, rows of the slab, ny) — (6, N_z, nx, ny) on one rank."""
+        return (6, self.z.size, self.slab.nx_local, self.grid.ny)
 
     def _symmetrise(self, P, Tx, Ty):
         """Replace A, B on the Nyquist row/column by their average over ±α (±β)."""
@@ -205,7 +218,8 @@ class HalfSpaceStress:
             cols = slice(None, c) if c is not None else slice(None)
             average((r, cols), ((1, 1), (-1, 1)))
         if c is not None:
-            rows = np.arange(self.grid.nx) if r is None else np.delete(np.arange(self.grid.nx), r)
+            rows = (np.arange(self.grid.nx) if r is None
+                    else np.delete(np.arange(self.grid.nx), r))
             average((rows, c), ((1, 1), (1, -1)))
         if r is not None and c is not None:
             average(((r,), (c,)), ((1, 1), (-1, 1), (1, -1), (-1, -1)))
@@ -213,20 +227,21 @@ class HalfSpaceStress:
     def stresses(self, P_hat, Tx_hat, Ty_hat=None, out=None, layers=None) -> np.ndarray:
         """Stresses (6, N_z, nx, ny) of the fluctuating surface tractions (MODEL.md A.1).
 
-        ``P_hat``, ``Tx_hat``, ``Ty_hat``: half spectra (``rfft2``, shape (nx, ny//2+1)) of
+        ``P_hat``, ``Tx_hat``, ``Ty_hat``: half spectra (``rfft2``, shape (nx, ny//2+1); on a
+        slab of several ranks only its columns ``slab.cols``) of
         σ_zz(0) = −p, σ_xz(0) = −q_x, σ_yz(0) = −q_y; ``Ty_hat=None`` means no q_y. Their mean
         modes are ignored. ``layers``: optional indices (or a slice) into :attr:`z` to compute
         only those layers (to bound memory on large grids); the result then has
         ``len(layers)`` layers. ``out``: optional float64 array of the result's shape.
         """
-        ss = self.grid.spectral_shape
+        ss = self._T.shape
         for name, s in (("P_hat", P_hat), ("Tx_hat", Tx_hat), ("Ty_hat", Ty_hat)):
             if s is not None and np.shape(s) != ss:
                 raise ValueError(f"{name} has shape {np.shape(s)}, expected {ss}")
         idx = np.arange(self.z.size)
         if layers is not None:
             idx = idx[layers]
-        shape = (6, idx.size, self.grid.nx, self.grid.ny)
+        shape = (6, idx.size, self.slab.nx_local, self.grid.ny)
         if out is None:
             out = np.empty(shape)
         elif out.shape != shape or out.dtype != np.float64:
@@ -241,7 +256,7 @@ class HalfSpaceStress:
                 np.multiply(A[c], E, out=C[c])
                 np.multiply(B[c], F, out=T)
                 C[c] += T
-            self._inv6.inverse(C, out=out[:, kk])
+            self.slab.inverse6(C, out[:, kk])
         return out
 
     def spectra(self, p, qx, qy=None):
@@ -253,8 +268,7 @@ class HalfSpaceStress:
                 continue
             if np.shape(f) != self.grid.shape:
                 raise ValueError(f"traction of shape {np.shape(f)}, expected {self.grid.shape}")
-            self._fwd.forward(f, out=spec[i])
-            np.negative(spec[i], out=spec[i])
+            np.negative(self.slab.forward(f[self.slab.rows]), out=spec[i])
         return spec[0], spec[1], (None if qy is None else spec[2])
 
     def from_tractions(self, p, qx, qy=None, out=None) -> np.ndarray:

@@ -85,6 +85,18 @@ def petsc():
     return _PETSc
 
 
+def require_petsc(what: str):
+    """The ``petsc4py.PETSc`` module (initialised with no options if nobody did yet), or a
+    MicropitError saying that ``what`` needs it."""
+    if _PETSc is None and not init_petsc([]):
+        from micropit_hpc.errors import MicropitError
+
+        raise MicropitError(f"{what} needs petsc4py (Debian: python3-petsc4py with PETSC_DIR "
+                            "set or the venv's .pth file; scripts/setup.sh, docs/install.md "
+                            "trap 3)")
+    return _PETSc
+
+
 @contextmanager
 def stage(name: str) -> Iterator[None]:
     """A ``PETSc.Log.Stage`` named ``name`` (one per name) around the block; no-op without

@@ -1,0 +1,324 @@
+"""``micropit run``: a study's blocks with checkpoints, restart and clean stops (HPC.md §3).
+
+Per block: every group runs its items (:class:`~micropit_hpc.study.Study`), the records are
+gathered, a checkpoint is written (every ``checkpoint_every`` blocks and after the last), and
+the ranks agree whether to stop (signal, STOP file, wall-time budget:
+:class:`~micropit_hpc.parallel.control.StopControl`). A stop writes the checkpoint of the block
+just done and returns ``stopped``; the command then exits with
+:data:`~micropit_hpc.parallel.control.EXIT_CHECKPOINTED` (85) for the job script to requeue.
+
+Checkpoint layout (``OUT/checkpoints/ckpt_<block>.h5``, :mod:`micropit_hpc.io.checkpoint`):
+per item, for each body ``bodyB/heights``, ``bodyB/wear``, ``bodyB/pit_depth`` (n_x, n_y,
+metres), ``bodyB/pitted`` (uint8), ``bodyB/damage`` (N_z, n_x, n_y; each rank of a group writes
+its own x rows), ``state`` (cycles, blocks, R_q0 of body 1 and 2) and ``records`` (blocks ×
+:data:`RECORD_FIELDS`, NaN after the last block done). Attributes: the scene (JSON), the scene
+file, the work items, the seed and how the random streams derive from it, the life settings.
+
+A restart reads the newest complete checkpoint on any number of ranks and any
+``ranks_per_item`` (the arrays are indexed by item, never by rank) and assigns the items
+longest-first by their last block's time. It refuses a checkpoint of a different scene unless
+``force``; the work items and the window must match in any case. N blocks straight equal k
+blocks + restart + N − k blocks, bit for bit on the same layout (tests/test_restart*.py).
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Callable
+from dataclasses import astuple, dataclass, fields
+from pathlib import Path
+
+import numpy as np
+
+from micropit_hpc.io.checkpoint import (
+    CheckpointError,
+    FieldSpec,
+    Piece,
+    checkpoint_name,
+    find_latest,
+    read_checkpoint,
+    write_checkpoint,
+)
+from micropit_hpc.io.hdf5 import scene_json
+from micropit_hpc.life import BlockRecord
+from micropit_hpc.parallel.control import StopControl
+from micropit_hpc.parallel.petsc import stage
+from micropit_hpc.scene import Scene
+from micropit_hpc.study import Study
+
+__all__ = ["RECORD_FIELDS", "RunOptions", "RunOutcome", "record_from_row", "record_row",
+           "run_study"]
+
+CHECKPOINT_DIR = "checkpoints"
+
+#: Columns of the ``records`` checkpoint field: BlockRecord's fields, pairs flattened.
+RECORD_FIELDS = ("block", "cycles", "sub_blocks", "phi", "wall_s", "Ap1", "Ap2",
+                 "max_damage1", "max_damage2", "wear_mean1", "wear_mean2", "wear_max1",
+                 "wear_max2", "Rq1", "Rq2", "n_micro1", "n_micro2")
+
+
+def record_row(rec: BlockRecord) -> np.ndarray:
+    """A BlockRecord as one float64 row of :data:`RECORD_FIELDS`."""
+    out = []
+    for v in astuple(rec):
+        out.extend(v if isinstance(v, tuple) else (v,))
+    return np.array(out, dtype=float)
+
+
+def record_from_row(row: np.ndarray) -> BlockRecord:
+    """The BlockRecord of a :func:`record_row` row (exact round trip)."""
+    vals, i = {}, 0
+    for f in fields(BlockRecord):
+        if f.name in ("block", "sub_blocks"):
+            vals[f.name], i = int(row[i]), i + 1
+        elif f.name in ("cycles", "phi", "wall_s"):
+            vals[f.name], i = float(row[i]), i + 1
+        else:
+            vals[f.name], i = (float(row[i]), float(row[i + 1])), i + 2
+    return BlockRecord(**vals)
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """How to run a study (the ``micropit run`` options)."""
+
+    out: Path
+    positions: tuple[int, ...] | None = None
+    ranks_per_item: int = 1
+    restart: bool = False
+    force: bool = False
+    max_wall_s: float | None = None
+    stop_file: Path | None = None
+    keep: int = 3
+    checkpoint_every: int = 1
+
+
+@dataclass
+class RunOutcome:
+    """What a run did: ``status`` ``"done"`` or ``"stopped"`` (checkpointed, exit 85), the
+    blocks done (all runs together), the block it started from, the records of every item
+    (every rank), why it stopped, and the study."""
+
+    status: str
+    blocks_done: int
+    start_block: int
+    records: dict[int, list[BlockRecord]]
+    reason: str | None
+    study: Study
+
+
+def _field_specs(study: Study) -> list[FieldSpec]:
+    grid, z = study.window()
+    shape2 = grid.shape
+    specs = [FieldSpec("state", (4,), "f8"),
+             FieldSpec("records", (study.blocks, len(RECORD_FIELDS)), "f8")]
+    for b in (1, 2):
+        specs += [FieldSpec(f"body{b}/heights", shape2, "f8"),
+                  FieldSpec(f"body{b}/wear", shape2, "f8"),
+                  FieldSpec(f"body{b}/pit_depth", shape2, "f8"),
+                  FieldSpec(f"body{b}/pitted", shape2, "u1"),
+                  FieldSpec(f"body{b}/damage", (z.size, *shape2), "f8")]
+    return specs
+
+
+def _items_json(study: Study) -> str:
+    return json.dumps([[i.id, i.position, i.k_lub, i.scale, i.patch] for i in study.items])
+
+
+def _attrs(study: Study, scene: Scene) -> dict:
+    return {"scene": scene_json(scene.document), "scene_file": str(scene.source),
+            "items": _items_json(study), "seed": int(scene.window.seed),
+            "rng": "numpy SeedSequence(seed, spawn_key=(body,) or (body, patch)); per-row "
+                   "streams (surfaces/synthetic.py); no state advances during a run",
+            "blocks": study.blocks, "block_cycles": float(scene.life.block),
+            "life_cycles": float(scene.life.cycles)}
+
+
+def _pieces(study: Study, records: dict[int, list[BlockRecord]]) -> list[Piece]:
+    """This rank's parts of the checkpoint: its slab rows of the damage; on a group root the
+    2-D fields and state of its items; on world rank 0 the records of every item."""
+    pieces = []
+    for iid, run in study.runs.items():
+        rows = run.cycle.slab.rows
+        st = run.state
+        for b, bs in enumerate(st.bodies, start=1):
+            pieces.append(Piece(iid, f"body{b}/damage", bs.damage,
+                                (slice(None), slice(rows.start, rows.stop))))
+            if study.group.is_root:
+                pieces += [Piece(iid, f"body{b}/heights", bs.heights),
+                           Piece(iid, f"body{b}/wear", bs.wear),
+                           Piece(iid, f"body{b}/pit_depth", bs.pit_depth),
+                           Piece(iid, f"body{b}/pitted", bs.pitted.astype(np.uint8))]
+        if study.group.is_root:
+            pieces.append(Piece(iid, "state", np.array(
+                [st.cycles, st.block, st.bodies[0].rq0, st.bodies[1].rq0])))
+    if study.comm.rank == 0:
+        for iid, recs in records.items():
+            tab = np.full((study.blocks, len(RECORD_FIELDS)), np.nan)
+            for j, r in enumerate(recs):
+                tab[j] = record_row(r)
+            pieces.append(Piece(iid, "records", tab))
+    return pieces
+
+
+def _check_compatible(path: Path, attrs: dict, study: Study, scene: Scene, force: bool) -> None:
+    """Refuse a checkpoint of another scene (unless ``force``) or other work items."""
+    if attrs.get("items") != _items_json(study):
+        raise CheckpointError(
+            f"{path} holds other work items than {scene.source} with these options "
+            f"(positions, wear coefficients, roughness scales, patches); a restart cannot map "
+            f"them: restart with the same scene and --position options, or use a new --out")
+    if attrs.get("scene") != scene_json(scene.document) and not force:
+        old = json.loads(attrs.get("scene", "{}"))
+        new = json.loads(scene_json(scene.document))
+        diff = sorted(_differences(old, new))
+        shown = ", ".join(diff[:6]) + (" …" if len(diff) > 6 else "")
+        raise CheckpointError(
+            f"{path} was written for a different scene (from {attrs.get('scene_file')}); "
+            f"keys that differ: {shown or 'formatting only'}. Restart with the scene it was "
+            f"written for, or pass --force to continue with {scene.source}")
+
+
+def _differences(a, b, prefix: str = "") -> list[str]:
+    if isinstance(a, dict) and isinstance(b, dict):
+        out = []
+        for k in sorted(set(a) | set(b)):
+            out += _differences(a.get(k), b.get(k), f"{prefix}{k}.")
+        return out
+    return [] if a == b else [prefix.rstrip(".")]
+
+
+def _read_state(path: Path, study: Study) -> tuple[int, dict[int, list[BlockRecord]]]:
+    """Load every item's state of this rank from ``path``; returns the blocks done and (on
+    world rank 0) the records. Collective."""
+    requests = []
+    for iid, run in study.runs.items():
+        rows = run.cycle.slab.rows
+        requests.append((iid, "state", None))
+        for b in (1, 2):
+            requests.append((iid, f"body{b}/damage", (slice(None), slice(rows.start,
+                                                                         rows.stop))))
+            for name in ("heights", "wear", "pit_depth", "pitted"):
+                requests.append((iid, f"body{b}/{name}", None))
+    if study.comm.rank == 0:
+        requests += [(it.id, "records", None) for it in study.items]
+    attrs, data = read_checkpoint(path, study.comm, requests)
+    done = int(attrs["block"])
+    for iid, run in study.runs.items():
+        state = data[(iid, "state")]
+        st = run.state
+        st.cycles, st.block = float(state[0]), int(state[1])
+        for b, bs in enumerate(st.bodies, start=1):
+            bs.heights = np.array(data[(iid, f"body{b}/heights")], dtype=float)
+            bs.wear = np.array(data[(iid, f"body{b}/wear")], dtype=float)
+            bs.pit_depth = np.array(data[(iid, f"body{b}/pit_depth")], dtype=float)
+            bs.pitted = np.array(data[(iid, f"body{b}/pitted")]).astype(bool)
+            bs.damage = np.array(data[(iid, f"body{b}/damage")], dtype=float)
+            bs.rq0 = float(state[1 + b])
+            if bs.damage.shape != run.cycle.slab.local_shape:
+                raise CheckpointError(f"{path}: damage of item {iid} has shape "
+                                      f"{bs.damage.shape}, this window needs "
+                                      f"{run.cycle.slab.local_shape}")
+    records: dict[int, list[BlockRecord]] = {it.id: [] for it in study.items}
+    if study.comm.rank == 0:
+        for it in study.items:
+            tab = data[(it.id, "records")]
+            records[it.id] = [record_from_row(r) for r in tab[:done] if np.isfinite(r[0])]
+    return done, records
+
+
+def _costs_from(path: Path, comm, n_items: int) -> list[float] | None:
+    """Each item's last block time from a checkpoint (rank 0 reads, everyone gets it)."""
+    costs = None
+    if comm.rank == 0:
+        from micropit_hpc.io.hdf5 import h5py_module
+
+        try:
+            with h5py_module().File(path, "r") as f:
+                tab = f["records"][()]
+                done = int(f.attrs["block"])
+            if tab.shape[0] == n_items and done >= 1:
+                last = tab[:, min(done, tab.shape[1]) - 1, RECORD_FIELDS.index("wall_s")]
+                if np.all(np.isfinite(last)):
+                    costs = [float(c) for c in last]
+        except (OSError, KeyError, ValueError):
+            costs = None
+    return comm.bcast(costs, root=0) if comm.size > 1 else costs
+
+
+def run_study(scene: Scene, opts: RunOptions, comm,
+              log: Callable[[str], None] = lambda s: None,
+              on_block: Callable[[int, int, dict], None] | None = None) -> RunOutcome:
+    """Run (or resume) every work item of ``scene`` on ``comm`` (collective). ``on_block``
+    is called on every rank after each block with (block, blocks, records)."""
+    rank0 = comm.rank == 0
+    ckdir = Path(opts.out) / CHECKPOINT_DIR
+    latest = None
+    if opts.restart:
+        latest = find_latest(ckdir, comm, on_skip=lambda e: log(f"skipped {e}") if rank0
+                             else None)
+        if latest is None:
+            log(f"--restart: no usable checkpoint in {ckdir}; starting from the beginning")
+    with stage("setup"):
+        study = Study(scene, comm, opts.ranks_per_item, opts.positions, log)
+        costs = _costs_from(latest, comm, len(study.items)) if latest is not None else None
+        if costs is not None:
+            study.assign(costs)
+        study.setup()
+    records: dict[int, list[BlockRecord]] = {it.id: [] for it in study.items}
+    start = 0
+    if latest is not None:
+        attrs = None
+        problem = None
+        if rank0:
+            from micropit_hpc.io.checkpoint import verify_checkpoint
+
+            try:
+                attrs = verify_checkpoint(latest)
+                _check_compatible(latest, attrs, study, scene, opts.force)
+            except CheckpointError as e:
+                problem = str(e)
+        problem = comm.bcast(problem, root=0) if comm.size > 1 else problem
+        if problem:
+            raise CheckpointError(problem)
+        with stage("restart"):
+            start, records = _read_state(latest, study)
+        if start > study.blocks:
+            raise CheckpointError(f"{latest} is block {start}, beyond this scene's "
+                                  f"{study.blocks} blocks (life.cycles_M / life.block_M)")
+        log(f"restarted from {latest} (block {start} of {study.blocks}, "
+            f"{'round robin' if costs is None else 'longest-first by last block time'})")
+    specs = _field_specs(study)
+    attrs = _attrs(study, scene) if rank0 else {}
+
+    def checkpoint(k: int) -> Path:
+        with stage("checkpoint"):
+            return write_checkpoint(ckdir, comm, k, len(study.items), specs,
+                                    _pieces(study, records), attrs, keep=opts.keep)
+
+    done, reason, written = start, None, start
+    with StopControl(comm, opts.stop_file, opts.max_wall_s) as control:
+        for k in range(start + 1, study.blocks + 1):
+            t0 = time.perf_counter()
+            with stage("blocks"):
+                for iid, rec in study.run_block(k).items():
+                    records[iid].append(rec)
+            done = k
+            if k % opts.checkpoint_every == 0 or k == study.blocks:
+                checkpoint(k)
+                written = k
+            if on_block is not None:
+                on_block(k, study.blocks, records)
+            if k == study.blocks:
+                break
+            reason = control.reason(next_block_s=time.perf_counter() - t0)
+            if reason:
+                if written != k:
+                    checkpoint(k)
+                log(f"stopping after block {k} of {study.blocks}: {reason}; checkpoint "
+                    f"{ckdir / checkpoint_name(k)} written; continue with --restart")
+                return RunOutcome("stopped", done, start, records, reason, study)
+    if start == study.blocks:
+        log(f"the checkpoint is already at the last block ({start}); writing the results")
+    return RunOutcome("done", done, start, records, None, study)
