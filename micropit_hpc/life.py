@@ -28,6 +28,7 @@ from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.fatigue.dangvan import ALPHA_DV, dang_van
 from micropit_hpc.fatigue.rainflow import rainflow_damage
 from micropit_hpc.fatigue.sn import WoehlerLine
+from micropit_hpc.parallel.petsc import event
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.pits import detach, shift_columns
 from micropit_hpc.surfaces import Topography
@@ -183,7 +184,8 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -
     lam = tuple(t.peak_spacing_x() if t.rq > 0 else math.inf for t in tops)
     fields, p_prev = [], None
     for j in range(cycle.steps):
-        f = cycle.solve_step(j, p_prev)
+        with event("contact"):
+            f = cycle.solve_step(j, p_prev)
         fields.append(f)
         p_prev = f.pressure
     p_sum = sum(float(f.pressure.sum()) for f in fields)
@@ -194,27 +196,32 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -
     out = []
     rainflow = params.counting == "rainflow"
     for body in (1, 2):
-        hist = np.stack([cycle.stresses(f, body) for f in fields])     # (m, 6, Nz, nx, ny)
-        dv = dang_van(hist, alpha=params.alpha, keep_series=rainflow)
+        with event("stresses"):
+            hist = np.stack([cycle.stresses(f, body) for f in fields])  # (m, 6, Nz, nx, ny)
+        with event("dang_van"):
+            dv = dang_van(hist, alpha=params.alpha, keep_series=rainflow)
         del hist
         q = sum(float((f.traction1 if body == 1 else f.traction2).sum()) for f in fields)
         mu_signed = q / p_sum if p_sum > 0 else 0.0
-        macro = dang_van(cycle.macro_history(body, mu_signed, params.macro_samples),
-                         alpha=params.alpha)
+        with event("dang_van_macro"):
+            macro = dang_van(cycle.macro_history(body, mu_signed, params.macro_samples),
+                             alpha=params.alpha)
         tau_smooth = macro.tau_dv                                        # (Nz, 1, ny')
         lam_c = lam[2 - body]                                            # the counterface's
         n_mu = micro_cycles(cycle, body, lam_c)
-        if rainflow:
-            m = dv.series.shape[0]
-            rough = rainflow_damage(dv.series.reshape(m, -1), params.woehler.damage)
-            rate = rough.reshape(dv.tau_dv.shape)
-        else:
-            rate = (params.woehler.damage(tau_smooth)
-                    + n_mu * params.woehler.damage(dv.tau_dv))
+        with event("damage_rate"):
+            if rainflow:
+                m = dv.series.shape[0]
+                rough = rainflow_damage(dv.series.reshape(m, -1), params.woehler.damage)
+                rate = rough.reshape(dv.tau_dv.shape)
+            else:
+                rate = (params.woehler.damage(tau_smooth)
+                        + n_mu * params.woehler.damage(dv.tau_dv))
         hardness = (cycle.scene.body1 if body == 1 else cycle.scene.body2).hardness
-        wear = archard_rate([f.pressure for f in fields], [f.solid for f in fields],
-                            [cycle.slip(body, f.t) for f in fields], g.dx, c.u_s, hardness,
-                            params.k_lub, params.f_w)
+        with event("wear_rate"):
+            wear = archard_rate([f.pressure for f in fields], [f.solid for f in fields],
+                                [cycle.slip(body, f.t) for f in fields], g.dx, c.u_s,
+                                hardness, params.k_lub, params.f_w)
         out.append(BodyCycle(damage_rate=rate, wear_rate=wear, tau_rough=dv.tau_dv,
                              tau_smooth=tau_smooth, n_micro=n_mu, lam_c=lam_c))
     return CycleResult(bodies=tuple(out), phi=phi, solid_fraction=solid, steps=cycle.steps,
@@ -288,7 +295,8 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
     while left > 0:
         result = evaluate_cycle(cycle, state, params)
         n = sub_block_cycles(state, result, left, params, cycle.slab)
-        apply_cycles(state, result, n, cycle.z, cycle.slab)
+        with event("apply_cycles"):
+            apply_cycles(state, result, n, cycle.z, cycle.slab)
         phi_acc += n * result.phi
         n_done += n
         left -= n

@@ -30,6 +30,23 @@ def scene_text():
     return lambda name: (SCENES / f"{name}.toml").read_text()
 
 
+@pytest.fixture
+def shared_dir():
+    """A fresh directory every MPI rank sees (rank 0 makes it, the others get its name)."""
+    import shutil
+    import tempfile
+
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    name = tempfile.mkdtemp(prefix="micropit-mpi-") if comm.rank == 0 else None
+    path = Path(comm.bcast(name, root=0))
+    yield path
+    comm.Barrier()
+    if comm.rank == 0:
+        shutil.rmtree(path, ignore_errors=True)
+
+
 def _mpi_size() -> int:
     if "mpi4py" not in sys.modules:
         return 1

@@ -11,7 +11,6 @@ import os
 import shutil
 import subprocess
 import sys
-import tempfile
 import textwrap
 from pathlib import Path
 
@@ -32,20 +31,6 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def all_ranks_agree(comm, ok: bool) -> bool:
     return all(comm.allgather(bool(ok)))
-
-
-@pytest.fixture
-def shared_dir():
-    """A fresh directory every rank sees (rank 0 makes it, the others get its name)."""
-    from mpi4py import MPI
-
-    comm = MPI.COMM_WORLD
-    name = tempfile.mkdtemp(prefix="micropit-ckpt-") if comm.rank == 0 else None
-    path = Path(comm.bcast(name, root=0))
-    yield path
-    comm.Barrier()
-    if comm.rank == 0:
-        shutil.rmtree(path, ignore_errors=True)
 
 
 def value(item, shape, field=0):
