@@ -1,29 +1,55 @@
 #!/usr/bin/env bash
-# Local launch on a workstation: check the environment, then run the main job on NP ranks.
-#   bash jobs/local.sh [SCENE]        (default scenes/gear_z23.toml; NP=2 by default)
-# Environment: NP (ranks), OUT_DIR (default runs/<scene name>), MICROPIT_PYTHON (interpreter;
-# default .venv/bin/python from scripts/setup.sh).
-# For now the main job computes the contact conditions along the flank and plots them, then
-# one time step of the rough contact at position POSITION (default 3); the life simulation will
-# take its place when it lands.
+# Local launch on a workstation: check the environment, run the life simulation of a scene on
+# NP ranks, then plot it.
+#   bash jobs/local.sh [SCENE]        (default scenes/quick.toml; NP=2 by default)
+# Environment:
+#   NP=N               ranks (default 2)
+#   OUT_DIR=DIR        output folder (default runs/<scene name>)
+#   RESTART=1          continue from the newest checkpoint in OUT_DIR/checkpoints
+#   RUN_ARGS="..."     more `micropit run` arguments (--ranks-per-item 2, --max-wall 1:00:00,
+#                      -log_view, ...)
+#   MICROPIT_PYTHON    the interpreter (default .venv/bin/python from scripts/setup.sh)
+# Exit code 85: the run stopped at a block boundary (Ctrl-C is not caught; SIGUSR1/SIGTERM or
+# OUT_DIR/STOP are) after writing a checkpoint; run again with RESTART=1 to continue.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 source scripts/mpi-env.sh
 py=${MICROPIT_PYTHON:-$root/.venv/bin/python}
 np=${NP:-2}
-scene=${1:-scenes/gear_z23.toml}
+scene=${1:-scenes/quick.toml}
 name=$(basename "$scene" .toml)
 out=${OUT_DIR:-runs/$name}
 mkdir -p "$out"
 
 echo "== micropit check-env on $np ranks"
 mpirun -n "$np" "$py" -m micropit_hpc check-env --expect-ranks "$np"
-echo "== micropit contact $scene on $np ranks"
-mpirun -n "$np" "$py" -m micropit_hpc contact "$scene" --csv "$out/contact.csv"
-"$py" postprocess/plot_contact.py "$scene" --out "$out/contact.png"
-pos=${POSITION:-3}
-echo "== micropit snapshot $scene, position $pos (one time step of the rough contact)"
-"$py" -m micropit_hpc snapshot "$scene" --position "$pos" --out "$out/snapshot"
-echo "== done: contact table $out/contact.csv, plot $out/contact.png, rough contact" \
-     "$out/snapshot/snapshot.h5 and maps $out/snapshot/snapshot.png"
+args=(run "$scene" --out "$out" --stop-file "$out/STOP")
+[[ "${RESTART:-0}" == 1 ]] && args+=(--restart)
+# shellcheck disable=SC2206  # RUN_ARGS is split on purpose
+[[ -z "${RUN_ARGS:-}" ]] || args+=(${RUN_ARGS})
+echo "== micropit ${args[*]} on $np ranks"
+status=0
+mpirun -n "$np" "$py" -m micropit_hpc "${args[@]}" || status=$?
+if ((status == 85)); then
+    echo "== stopped with a checkpoint (exit 85): RESTART=1 bash jobs/local.sh $scene continues"
+    exit 85
+elif ((status)); then
+    exit "$status"
+fi
+echo "== plots"
+if "$py" - "$out" <<'PY'
+import sys, h5py, numpy as np
+with h5py.File(sys.argv[1] + "/results.h5", "r") as f:
+    ok = "roll_angle" in f["items"] and not np.all(np.isnan(f["items/roll_angle"][()]))
+sys.exit(0 if ok else 1)
+PY
+then
+    "$py" postprocess/plot_flank.py "$out"
+    what="$out/flank.png (A_p along the flank, Fig. 8 style) and $out/flank.csv"
+else
+    what="the A_p table $out/summary.csv"
+fi
+"$py" postprocess/plot_life.py "$out"
+echo "== done: $what, $out/life.png (A_p against cycles and damage maps), all numbers in" \
+     "$out/summary.csv and $out/results.h5 (docs/outputs.md)"

@@ -128,14 +128,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
         f"blocks of {scene.life.block / 1e6:g} M cycles to {scene.life.cycles / 1e6:g} M")
     progress = [None]
 
-    def on_block(k: int, blocks: int, records: dict) -> None:
-        if progress[0] is None:
-            progress[0] = (Progress(blocks, "blocks") if rank0
-                           else NullProgress(blocks, "blocks"))
-        ap = max((r[-1].Ap[0] for r in records.values() if r), default=0.0)
-        progress[0].update(k, f"{len(records)} items, max A_p body 1 {ap:.3g} %")
+    def on_start(blocks: int, start: int) -> None:
+        progress[0] = (Progress(blocks, "blocks", initial=start) if rank0
+                       else NullProgress(blocks, "blocks"))
 
-    outcome = run_study(scene, opts, comm, log, on_block)
+    def on_block(k: int, blocks: int, records: dict) -> None:
+        ap = max((r[-1].Ap[0] for r in records.values() if r), default=0.0)
+        progress[0].update(k, f"{k * len(records)} item-blocks of {blocks * len(records)}, "
+                              f"max A_p body 1 {ap:.3g} %")
+
+    outcome = run_study(scene, opts, comm, log, on_block, on_start)
     if progress[0] is not None:
         progress[0].close()
     study = outcome.study

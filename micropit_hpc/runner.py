@@ -249,9 +249,11 @@ def _costs_from(path: Path, comm, n_items: int) -> list[float] | None:
 
 def run_study(scene: Scene, opts: RunOptions, comm,
               log: Callable[[str], None] = lambda s: None,
-              on_block: Callable[[int, int, dict], None] | None = None) -> RunOutcome:
-    """Run (or resume) every work item of ``scene`` on ``comm`` (collective). ``on_block``
-    is called on every rank after each block with (block, blocks, records)."""
+              on_block: Callable[[int, int, dict], None] | None = None,
+              on_start: Callable[[int, int], None] | None = None) -> RunOutcome:
+    """Run (or resume) every work item of ``scene`` on ``comm`` (collective). ``on_start``
+    is called on every rank before the first block with (blocks, blocks already done),
+    ``on_block`` after each block with (block, blocks, records)."""
     rank0 = comm.rank == 0
     ckdir = Path(opts.out) / CHECKPOINT_DIR
     latest = None
@@ -298,6 +300,8 @@ def run_study(scene: Scene, opts: RunOptions, comm,
                                     _pieces(study, records), attrs, keep=opts.keep)
 
     done, reason, written = start, None, start
+    if on_start is not None:
+        on_start(study.blocks, start)
     with StopControl(comm, opts.stop_file, opts.max_wall_s) as control:
         for k in range(start + 1, study.blocks + 1):
             t0 = time.perf_counter()

@@ -5,4 +5,4 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 export MICROPIT_PYTHON=${MICROPIT_PYTHON:-$(bash scripts/setup.sh)}
-exec bash jobs/local.sh "${1:-scenes/gear_z23.toml}"
+exec bash jobs/local.sh "${1:-scenes/quick.toml}"

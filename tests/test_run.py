@@ -94,3 +94,32 @@ def test_one_and_two_ranks_give_bitwise_equal_records(tmp_path_factory):
             for k in maps_ser[i])
         ok = ok and par.group.count == comm.size and len(par.mine) <= 1
     assert all(comm.allgather(ok))
+
+
+def test_quick_scene_runs_and_the_flank_plot_reads_it(tmp_path):
+    """scenes/quick.toml (coarsened) through `micropit run` and postprocess/plot_flank.py."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "scenes" / "quick.toml").read_text()
+    for old, new in (("n = 5 ", "n = 3 "), ("n = 64", "n = 16"), ("steps = 10", "steps = 4"),
+                     ("layers = 8", "layers = 4"), ("cycles_M = 3.0", "cycles_M = 1.0")):
+        assert old in text
+        text = text.replace(old, new)
+    scene = tmp_path / "quick.toml"
+    scene.write_text(text)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out)]) == 0
+    run = subprocess.run([sys.executable, str(root / "postprocess" / "plot_flank.py"), str(out)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    rows = list(csv.DictReader(open(out / "flank.csv")))
+    assert [int(r["position"]) for r in rows] == [1, 2, 3]
+    angles = [float(r["roll_angle_deg"]) for r in rows]
+    assert angles == sorted(angles)
+    pitch = rows[1]                                   # the middle of A-E: the pitch point
+    assert abs(float(pitch["S"])) < 1e-9
+    assert float(pitch["Ap1_pct"]) == 0.0 and float(pitch["Ap2_pct"]) == 0.0
+    assert (out / "flank.png").stat().st_size > 10_000

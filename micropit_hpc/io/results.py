@@ -64,6 +64,10 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
             tab["p0"] = np.array([c.p0 for c in conds])
             tab["p0"].attrs["unit"] = "Pa"
             tab["Lambda"] = np.array([study.item_lambda(i) for i in items])
+            tab["roll_angle"] = np.array([c.roll_angle for c in conds])   # NaN for a disc rig
+            tab["roll_angle"].attrs["unit"] = "rad"
+            tab["radial_position"] = np.array([c.radial_position for c in conds])
+            tab["radial_position"].attrs["unit"] = "m"
             hist = f.create_group("history")
             for iid, recs in records.items():
                 g = hist.create_group(f"item_{iid:05d}")
