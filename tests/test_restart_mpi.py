@@ -123,3 +123,34 @@ def test_a_window_split_over_two_ranks_equals_one_rank(shared_dir):
         ok = ok and worst <= 1e-12
         print(f"ranks_per_item 2 vs 1: largest relative difference {worst:.2e}")
     assert agree(comm, ok)
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.timeout(300)
+def test_a_rank_without_items_checkpoints_and_restarts(shared_dir):
+    """One work item on two groups: rank 1 computes nothing and writes nothing, yet takes part
+    in every collective write and read (HPC.md §3)."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    doc = tiny_doc(slide_roll=(0.3,), k_lub=(0.0,))
+    doc["life"]["cycles_M"] = 2.0
+    scene = scene_from_dict(doc, "one.toml")
+    stop = shared_dir / "STOP"
+    if comm.rank == 0:
+        stop.touch()
+    comm.Barrier()
+    a = run_study(scene, RunOptions(out=shared_dir / "o", stop_file=stop), comm)
+    ok = a.status == "stopped" and len(a.study.runs) == (1 if comm.rank == 0 else 0)
+    comm.Barrier()
+    if comm.rank == 0:
+        stop.unlink()
+    comm.Barrier()
+    b = run_study(scene, RunOptions(out=shared_dir / "o", restart=True), comm)
+    recs, maps = outcome_data(b)
+    ok = ok and b.status == "done" and b.start_block == 1
+    if comm.rank == 0:
+        ref_recs, ref_maps = serial_reference(scene, shared_dir / "ref")
+        ok = ok and recs == ref_recs and all(np.array_equal(maps[0][k], ref_maps[0][k])
+                                             for k in ref_maps[0])
+    assert agree(comm, ok)
