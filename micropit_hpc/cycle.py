@@ -20,7 +20,7 @@ from micropit_hpc.conditions import ContactConditions, ContactStudy
 from micropit_hpc.errors import MicropitError, SceneError
 from micropit_hpc.hertz import line_contact
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
-from micropit_hpc.lubrication.mixed import MixedLubrication, MixedParameters
+from micropit_hpc.lubrication.mixed import MixedLubrication, MixedParameters, restore_mean
 from micropit_hpc.lubrication.rheology import calibrated_prefactor
 from micropit_hpc.mechanics.halfspace import HalfSpaceStress, depth_layers
 from micropit_hpc.mechanics.hertz_field import EllipticalContactField, line_contact_stress
@@ -184,10 +184,16 @@ class PositionCycle:
         self._macro_ellipse: dict[int, EllipticalContactField] = {}
         self._traction_spectra: tuple = (None, None, None)
 
-    def set_surfaces(self, surfaces: tuple[Topography, Topography]) -> None:
-        """Use new surfaces (worn, pitted) from now on; the contact level stays as chosen."""
+    def set_surfaces(self, surfaces: tuple[Topography, Topography],
+                     pits: tuple[np.ndarray, np.ndarray] | None = None) -> None:
+        """Use new surfaces (worn, pitted) from now on; the contact level stays as chosen.
+
+        ``pits``: each body's pitted columns (material frame) that carry no load
+        (``life.pit_contact = "unloaded"``): after each contact solve the pressure there is
+        set to zero and the mean pressure restored on the rest (:meth:`solve_step`)."""
         self.surfaces = tuple(surfaces)
         self.rough_spectra = tuple(self._fft.forward(-s.heights) for s in self.surfaces)
+        self.pits = None if pits is None or not any(m.any() for m in pits) else tuple(pits)
 
     # ---- kinematics --------------------------------------------------------------------------
     def time(self, step: int) -> float:
@@ -247,6 +253,8 @@ class PositionCycle:
         else:
             sol = self.mixed.solve(r_now, self.rough_spectra, p_mean, t, p_init=p_init)
             pressure, clearance, phi, iters = sol.pressure, sol.clearance, sol.phi, sol.iterations
+        if self.pits is not None and p_mean > 0.0:
+            pressure, clearance = self._unload_pits(pressure, clearance, p_mean, t)
         solid = clearance <= lub.h_min if self.level != "smooth" else np.zeros(g.shape, bool)
         friction = np.where(solid, lub.mu_bl, lub.mu_ehl)
         q = friction * pressure
@@ -255,6 +263,35 @@ class PositionCycle:
                           level=self.level, pressure=pressure, clearance=clearance,
                           solid=solid, friction=friction, phi=phi, iterations=iters,
                           traction1=s1 * q, traction2=-s1 * q)
+
+    def pit_mask(self, t: float) -> np.ndarray:
+        """The columns of the window over a pit of either body at time t (each body's pits
+        moved with its surface, to the nearest cell)."""
+        g = self.grid
+        mask = np.zeros(g.shape, bool)
+        for i, m in enumerate(self.pits, start=1):
+            if m.any():
+                mask |= np.roll(m, int(round(self.slip(i, t) / g.dx)), axis=0)
+        return mask
+
+    def _unload_pits(self, pressure, clearance, p_mean: float, t: float):
+        """Pits carry no load (``life.pit_contact = "unloaded"``): zero pressure over them, the
+        mean p̄ restored on the other columns (capped at p_lim: if they cannot carry it, they
+        carry p_lim), and no solid contact there."""
+        mask = self.pit_mask(t)
+        if not mask.any():
+            return pressure, clearance
+        free = ~mask
+        n_free = int(free.sum())
+        p = np.zeros_like(pressure)
+        if n_free:
+            target = p_mean * pressure.size / n_free
+            if target < self.p_lim:
+                p[free] = restore_mean(pressure[free], target, self.p_lim)
+            else:
+                p[free] = self.p_lim
+        clearance = np.where(mask, np.maximum(clearance, self.cond.hc), clearance)
+        return p, clearance
 
     # ---- stresses ----------------------------------------------------------------------------
     def stresses(self, fields: StepFields, body: int) -> np.ndarray:

@@ -53,6 +53,7 @@ class LifeParams:
     max_wear_fraction: float = 0.1
     max_damage_step: float = 0.25
     max_splits: int = 4
+    pit_contact: str = "unloaded"
 
     @classmethod
     def from_scene(cls, scene, k_lub: float) -> LifeParams:
@@ -61,7 +62,8 @@ class LifeParams:
                    alpha=ALPHA_DV if f.alpha is None else f.alpha, counting=f.counting,
                    macro_samples=f.macro_samples, block=life.block,
                    max_wear_fraction=life.max_wear_fraction,
-                   max_damage_step=life.max_damage_step, max_splits=life.max_splits)
+                   max_damage_step=life.max_damage_step, max_splits=life.max_splits,
+                   pit_contact=life.pit_contact)
 
 
 @dataclass
@@ -179,8 +181,13 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -
     and Dang Van per body, damage and wear per cycle."""
     t0 = time.perf_counter()
     g = cycle.grid
-    tops = tuple(Topography(b.heights, g.dx, g.dy, "evolved") for b in state.bodies)
-    cycle.set_surfaces(tops)
+    if params.pit_contact == "unloaded":   # the surface around the pits; pits carry nothing
+        tops = tuple(Topography(b.heights + b.pit_depth, g.dx, g.dy, "evolved")
+                     for b in state.bodies)
+        cycle.set_surfaces(tops, pits=tuple(b.pitted for b in state.bodies))
+    else:
+        tops = tuple(Topography(b.heights, g.dx, g.dy, "evolved") for b in state.bodies)
+        cycle.set_surfaces(tops)
     lam = tuple(t.peak_spacing_x() if t.rq > 0 else math.inf for t in tops)
     fields, p_prev = [], None
     for j in range(cycle.steps):

@@ -305,6 +305,15 @@ surfaces, with the adaptive split of a block.
         hi=1e9, lo_open=True),
     Key("max_splits", "max_splits", "int", "At most this many sub-blocks per block (the "
         "smallest sub-block is ΔN/max_splits).", default=4, lo=1, hi=100000),
+    Key("pit_contact", "pit_contact", "str", "How a micropit enters the next contact "
+        "solutions [choice]. `unloaded`: the pit's floor is never reached, so its columns "
+        "carry no pressure and no traction; the contact, film balance and peak spacing are "
+        "solved on the surface around it (the heights, R_q and wear outputs still drop by "
+        "the pit depth); `geometric`: the pitted heights enter the clearance as a step "
+        "(MODEL.md §4.5 read literally; a one-cell step of microns is outside what the "
+        "small-slope half-space and the linearised micro-EHL represent and sets off a "
+        "cascade of failures around every pit, docs/life.md).", default="unloaded",
+        choices=("unloaded", "geometric")),
 ))
 
 _FILM = Section("film", "Central film thickness of the smooth contact (MODEL.md §2.4).", (
@@ -556,6 +565,7 @@ class LifeSpec:
     max_wear_fraction: float = 0.1
     max_damage_step: float = 0.25
     max_splits: int = 4
+    pit_contact: str = "unloaded"
 
 
 @dataclass(frozen=True)

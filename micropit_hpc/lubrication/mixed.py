@@ -225,14 +225,22 @@ class MixedLubrication:
             H_lub = fft.inverse(H_t)
             clearance = H_lub - H_lub.mean() + h_bar
             return self._finish(H_t, r_tot, clearance, 0.0, p_mean, state["iters"], h_bar)
-        f1, sol1 = film(1.0)
-        if f1 >= 0.0:
-            phi, sol = 1.0, sol1
-        else:
-            lo, hi, flo, fhi = 0.0, 1.0, f0, f1
-            sol = sol1
+        # The balance need not be monotone in φ (with fluid_share = "scaled" the dry part acts
+        # on less flattened roughness as φ grows): take the smallest root, bracketed by a
+        # coarse scan, and φ = 1 only when no φ lets the solids reach the film.
+        lo, flo = 0.0, f0
+        hi, fhi, sol = None, None, None
+        for trial in PHI_SCAN:
+            f, s_trial = film(trial)
+            if f <= 0.0:
+                hi, fhi, sol = trial, f, s_trial
+                break
+            lo, flo, sol = trial, f, s_trial
+        if hi is None:
             phi = 1.0
-            for _ in range(60):  # regula falsi (Illinois) on the monotone film balance
+        else:
+            phi = hi
+            for _ in range(60):  # regula falsi (Illinois) on the bracketed film balance
                 phi = hi - fhi * (hi - lo) / (fhi - flo)
                 f, sol = film(phi)
                 if abs(f) <= prm.film_tol * h_bar or hi - lo < 1e-9:
@@ -262,6 +270,10 @@ class MixedLubrication:
         p = self._fft.inverse(dp * self.hs.stiffness)
         p = restore_mean(p, p_mean, self.params.p_lim)
         return MixedSolution(p, clearance, float(phi), int(iters), float(film_mean))
+
+
+#: Load fractions tried, in order, to bracket the smallest root of the flow balance.
+PHI_SCAN = (0.25, 0.5, 0.75, 1.0)
 
 
 def restore_mean(p: np.ndarray, p_mean: float, p_lim: float = math.inf) -> np.ndarray:

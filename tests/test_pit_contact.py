@@ -1,0 +1,56 @@
+"""How micropits and the flow balance enter the contact of the next cycle.
+
+* ``life.pit_contact = "unloaded"`` (default): pitted columns carry no pressure and no traction,
+  the mean pressure is restored on the rest, and the pit moves with its surface;
+* the flow balance takes the smallest root φ of mean clearance = c_ρ h̄ (the balance is not
+  monotone in φ with ``fluid_share = "scaled"``; the earlier search stopped at φ = 1 with the
+  clearance twice the film on this MPR-like contact).
+"""
+
+import numpy as np
+import pytest
+from test_life import tiny_doc
+
+from micropit_hpc.conditions import contact_study
+from micropit_hpc.cycle import PositionCycle
+from micropit_hpc.lubrication import rheology
+from micropit_hpc.scene import scene_from_dict
+
+
+@pytest.fixture(scope="module")
+def cycle():
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["window"]["n"] = 32
+    return PositionCycle(contact_study(scene_from_dict(doc, "t.toml")), 1)
+
+
+@pytest.mark.parametrize("step", [3, 4])
+def test_the_flow_balance_takes_the_smallest_root(cycle, step):
+    cycle.set_surfaces(cycle.surfaces)
+    f = cycle.solve_step(step)
+    target = rheology.density_correction(f.phi * f.p_mean) * cycle.cond.hc
+    assert 0.0 < f.phi < 0.5
+    assert np.maximum(f.clearance, 0).mean() == pytest.approx(target, rel=1e-3)
+    assert f.pressure.mean() == pytest.approx(f.p_mean, rel=1e-12)
+
+
+def test_pits_carry_no_load_and_move_with_their_surface(cycle):
+    g = cycle.grid
+    pits1 = np.zeros(g.shape, bool)
+    pits1[5:8, 10:14] = True
+    pits2 = np.zeros(g.shape, bool)
+    pits2[20, 3] = True
+    cycle.set_surfaces(cycle.surfaces, pits=(pits1, pits2))
+    try:
+        for step in (1, 4, 6):
+            f = cycle.solve_step(step)
+            shift1 = round(cycle.slip(1, f.t) / g.dx)
+            shift2 = round(cycle.slip(2, f.t) / g.dx)
+            mask = np.roll(pits1, shift1, axis=0) | np.roll(pits2, shift2, axis=0)
+            assert shift1 != shift2 or step == 1
+            assert np.all(f.pressure[mask] == 0.0)
+            assert np.all(f.traction1[mask] == 0.0) and not f.solid[mask].any()
+            assert f.pressure.mean() == pytest.approx(f.p_mean, rel=1e-12)   # load balance
+            assert f.pressure.max() <= cycle.p_lim
+    finally:
+        cycle.set_surfaces(cycle.surfaces)
