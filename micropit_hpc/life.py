@@ -132,7 +132,9 @@ class CycleResult:
 
 @dataclass(frozen=True)
 class BlockRecord:
-    """The state at the end of a block (one value per body where a pair)."""
+    """The state at the end of a block (one value per body where a pair). ``wear_step``: the
+    largest wear depth one sub-block removed anywhere, over the body's initial R_q (the split
+    aims at ≤ ``max_wear_fraction``; above it the split stopped at ``max_splits``)."""
 
     block: int
     cycles: float
@@ -145,6 +147,7 @@ class BlockRecord:
     wear_max: tuple[float, float]
     Rq: tuple[float, float]
     n_micro: tuple[float, float]
+    wear_step: float = 0.0
 
 
 def initial_state(cycle: PositionCycle) -> LifeState:
@@ -297,11 +300,14 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
     Collective over the cycle's group (every rank returns the same record)."""
     t0 = time.perf_counter()
     left = params.block if cycles is None else cycles
-    subs, phi_acc, n_done = 0, 0.0, 0.0
+    subs, phi_acc, n_done, wear_step = 0, 0.0, 0.0, 0.0
     result = None
     while left > 0:
         result = evaluate_cycle(cycle, state, params)
         n = sub_block_cycles(state, result, left, params, cycle.slab)
+        for bs, bc in zip(state.bodies, result.bodies, strict=True):
+            if bs.rq0 > 0:
+                wear_step = max(wear_step, n * float(bc.wear_rate.max()) / bs.rq0)
         with event("apply_cycles"):
             apply_cycles(state, result, n, cycle.z, cycle.slab)
         phi_acc += n * result.phi
@@ -317,7 +323,7 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
         wear_mean=(float(b[0].wear.mean()), float(b[1].wear.mean())),
         wear_max=(float(b[0].wear.max()), float(b[1].wear.max())),
         Rq=(b[0].rq, b[1].rq),
-        n_micro=(result.bodies[0].n_micro, result.bodies[1].n_micro))
+        n_micro=(result.bodies[0].n_micro, result.bodies[1].n_micro), wear_step=wear_step)
     return rec
 
 

@@ -198,3 +198,16 @@ def test_adaptive_split_for_wear_that_would_remove_the_roughness(tiny):
     quiet = LifeParams.from_scene(scene, 0.0)
     st2 = initial_state(PositionCycle(study, 1))
     assert run_block(PositionCycle(study, 1), st2, quiet).sub_blocks == 1
+
+
+def test_a_block_records_the_largest_wear_step(tiny):
+    """wear_step = the largest wear depth of one sub-block over the initial R_q: at most
+    max_wear_fraction when the split can honour it, above it when max_splits stops it."""
+    scene, study = tiny
+    cycle = PositionCycle(study, 2)
+    for splits, within in ((64, True), (1, False)):
+        state = initial_state(cycle)
+        params = LifeParams(k_lub=1e-12, max_splits=splits)
+        rec = run_block(cycle, state, params)
+        assert rec.wear_step > 0.0
+        assert (rec.wear_step <= params.max_wear_fraction * (1 + 1e-9)) == within
