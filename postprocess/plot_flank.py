@@ -76,10 +76,10 @@ def plot(rows: list[dict], out: Path, title: str) -> None:
         if body == 1:
             h1, l1 = ax.get_legend_handles_labels()
             h2, l2 = tw.get_legend_handles_labels()
-            ax.legend(h1 + h2, l1 + l2, fontsize=8, loc="upper center", ncol=3)
+            fig.legend(h1 + h2, l1 + l2, fontsize=8, loc="lower center", ncol=4)
     a2.set_xlabel("roll angle of the driver [deg]")
     a1.set_title(title)
-    fig.tight_layout()
+    fig.tight_layout(rect=(0, 0.05, 1, 1))
     fig.savefig(out, dpi=120)
     plt.close(fig)
 
