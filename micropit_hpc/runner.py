@@ -224,6 +224,10 @@ def _read_state(path: Path, study: Study) -> tuple[int, dict[int, list[BlockReco
     if study.comm.rank == 0:
         for it in study.items:
             tab = data[(it.id, "records")]
+            if tab.shape[-1] != len(RECORD_FIELDS):
+                raise CheckpointError(f"{path}: block records of {tab.shape[-1]} columns, this "
+                                      f"version writes {len(RECORD_FIELDS)}; restart with the "
+                                      "version that wrote it")
             records[it.id] = [record_from_row(r) for r in tab[:done] if np.isfinite(r[0])]
     return done, records
 
