@@ -221,14 +221,20 @@ def _read_state(path: Path, study: Study) -> tuple[int, dict[int, list[BlockReco
                                       f"{bs.damage.shape}, this window needs "
                                       f"{run.cycle.slab.local_shape}")
     records: dict[int, list[BlockRecord]] = {it.id: [] for it in study.items}
+    problem = None
     if study.comm.rank == 0:
         for it in study.items:
             tab = data[(it.id, "records")]
             if tab.shape[-1] != len(RECORD_FIELDS):
-                raise CheckpointError(f"{path}: block records of {tab.shape[-1]} columns, this "
-                                      f"version writes {len(RECORD_FIELDS)}; restart with the "
-                                      "version that wrote it")
+                problem = (f"{path}: block records of {tab.shape[-1]} columns, this version "
+                           f"writes {len(RECORD_FIELDS)}; restart with the version that "
+                           "wrote it")
+                break
             records[it.id] = [record_from_row(r) for r in tab[:done] if np.isfinite(r[0])]
+    if study.comm.size > 1:
+        problem = study.comm.bcast(problem, root=0)
+    if problem:
+        raise CheckpointError(problem)
     return done, records
 
 
