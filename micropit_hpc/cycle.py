@@ -276,21 +276,22 @@ class PositionCycle:
 
     def _unload_pits(self, pressure, clearance, p_mean: float, t: float):
         """Pits carry no load (``life.pit_contact = "unloaded"``): zero pressure over them, the
-        mean p̄ restored on the other columns (capped at p_lim: if they cannot carry it, they
-        carry p_lim), and no solid contact there."""
+        mean p̄ restored on the other columns, and no solid contact there. When the intact
+        columns cannot carry p̄ below p_lim (the window is mostly pitted), they carry p_lim and
+        the rest of the load is spread evenly over the pit floors, which are then the
+        surface: the load balance holds whatever the pitted fraction."""
         mask = self.pit_mask(t)
         if not mask.any():
             return pressure, clearance
         free = ~mask
-        n_free = int(free.sum())
+        n, n_free = pressure.size, int(free.sum())
         p = np.zeros_like(pressure)
-        if n_free:
-            target = p_mean * pressure.size / n_free
-            if target < self.p_lim:
-                p[free] = restore_mean(pressure[free], target, self.p_lim)
-            else:
-                p[free] = self.p_lim
-        clearance = np.where(mask, np.maximum(clearance, self.cond.hc), clearance)
+        if n_free and p_mean * n / n_free < self.p_lim:
+            p[free] = restore_mean(pressure[free], p_mean * n / n_free, self.p_lim)
+            clearance = np.where(mask, np.maximum(clearance, self.cond.hc), clearance)
+        else:
+            p[free] = self.p_lim
+            p[mask] = (p_mean * n - self.p_lim * n_free) / (n - n_free)
         return p, clearance
 
     # ---- stresses ----------------------------------------------------------------------------
