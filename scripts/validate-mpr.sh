@@ -5,7 +5,7 @@
 # surfaces' correlation length along rolling doubled (scenes/*_beta30.toml: the paper's maps
 # are not public, so this is the sensitivity to that unknown, not a fit); writes the
 # side-by-side tables next to the results in runs/<scene>/ and prints the trend verdicts.
-# About 35 minutes on 2 cores (SCENES="paper_mpr" for a subset). Exit status 1 if a trend fails.
+# About 23 minutes on 2 cores (SCENES="paper_mpr" for a subset). Exit status 1 if a trend fails.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
