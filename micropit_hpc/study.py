@@ -20,7 +20,7 @@ import numpy as np
 
 from micropit_hpc.conditions import ContactStudy, contact_study
 from micropit_hpc.cycle import PositionCycle, body_surface, reference_half_width, window_grid
-from micropit_hpc.errors import MicropitError
+from micropit_hpc.errors import MicropitError, SceneError
 from micropit_hpc.life import (
     BlockRecord,
     LifeParams,
@@ -135,6 +135,16 @@ class Study:
                 raise MicropitError(f"{scene.source}: position {bad[0]} does not exist (the "
                                     f"scene has positions 1 to {n_pos})")
         self.items = work_items(scene, n_pos, positions)
+        for pos in sorted({it.position for it in self.items}):
+            c = self.base.conditions[pos - 1]
+            if min(c.u1, c.u2) <= 0.0:
+                key, value = ("disc.slide_roll", scene.disc.slide_roll[pos - 1]) \
+                    if scene.disc is not None else (f"position {pos}", c.S)
+                raise SceneError(
+                    scene.source, f"a surface at rest (u1 = {c.u1:.3g}, u2 = {c.u2:.3g} m/s, "
+                    "pure sliding) never completes a load cycle, so a life simulation cannot "
+                    "count its cycles (`micropit contact` still works)", key=key, value=value,
+                    allowed="|S| < 2 for `micropit run`")
         self.group = split_groups(comm, ranks_per_item)
         self.assignment = assign_items(len(self.items), self.group.count)  # round robin
         self.mine = [self.items[i] for i in self.group.items(self.assignment)]

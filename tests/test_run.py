@@ -123,3 +123,13 @@ def test_quick_scene_runs_and_the_flank_plot_reads_it(tmp_path):
     assert abs(float(pitch["S"])) < 1e-9
     assert float(pitch["Ap1_pct"]) == 0.0 and float(pitch["Ap2_pct"]) == 0.0
     assert (out / "flank.png").stat().st_size > 10_000
+
+
+@pytest.mark.parametrize("S", [2.0, -2.0])
+def test_pure_sliding_is_a_clear_error_for_the_life_run(tmp_path, capsys, S):
+    """|S| = 2 leaves one surface at rest: it never completes a load cycle (it used to end in
+    a ZeroDivisionError in the micro-cycle count)."""
+    scene = _write_scene(tmp_path / "slide.toml", tiny_doc(slide_roll=(S,)))
+    assert main(["run", str(scene), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "slide.toml: disc.slide_roll = " in err and "|S| < 2" in err
