@@ -133,3 +133,29 @@ def test_pure_sliding_is_a_clear_error_for_the_life_run(tmp_path, capsys, S):
     assert main(["run", str(scene), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "slide.toml: disc.slide_roll = " in err and "|S| < 2" in err
+
+
+def test_positions_at_the_ends_of_the_path_of_contact_run(tmp_path):
+    """Near-zero load at the very start and end of the path (p0 of a few MPa, with linear load
+    sharing): the life run finishes with finite numbers, A_p in [0, 100], no damage < 0."""
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "scenes" / "quick.toml").read_text()
+    # A and E of this pair are at roll angles 17.61235 and 37.93559 deg (micropit contact)
+    for old, new in (("n = 5 ", "roll_angle_deg = [17.6124, 37.9355] "), ("n = 64", "n = 16"),
+                     ("steps = 10", "steps = 4"), ("layers = 8", "layers = 4"),
+                     ("cycles_M = 3.0", "cycles_M = 1.0")):
+        assert old in text
+        text = text.replace(old, new)
+    scene = tmp_path / "ends.toml"
+    scene.write_text(text)
+    out = tmp_path / "out"
+    assert main(["run", str(scene), "--out", str(out)]) == 0
+    rows = list(csv.DictReader(open(out / "summary.csv")))
+    assert len(rows) == 2 * 2
+    for r in rows:
+        assert float(r["p0_GPa"]) < 0.01
+        for k in ("Ap_pct", "max_damage", "wear_um", "Rq_um"):
+            assert np.isfinite(float(r[k]))
+        assert 0.0 <= float(r["Ap_pct"]) <= 100.0 and float(r["max_damage"]) >= 0.0
