@@ -209,15 +209,8 @@ def _decode_attr(value):
     return value
 
 
-def _fsync_dir(directory: Path) -> None:
-    fd = os.open(directory, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
-def _fsync_file(path: Path) -> None:
+def _fsync(path: Path) -> None:
+    """fsync a file or a directory (for a directory: its entries, e.g. a rename)."""
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
@@ -333,7 +326,7 @@ def write_checkpoint(directory: str | Path, comm, block: int, n_items: int,
         for key in sorted(stored):
             f.attrs[key] = stored[key]
         f.attrs["complete"] = np.int64(1)  # last: a reader trusts nothing without it
-    _fsync_file(tmp)  # each rank flushes what its node wrote (matters on parallel FS)
+    _fsync(tmp)  # each rank flushes what its node wrote (matters on parallel FS)
     comm.Barrier()
     _at_stage("closed", tmp)
 
@@ -341,10 +334,10 @@ def write_checkpoint(directory: str | Path, comm, block: int, n_items: int,
     if rank == 0:
         try:
             os.replace(tmp, final)
-            _fsync_dir(directory)
+            _fsync(directory)
             _at_stage("renamed", final)
             write_text_atomic(directory / LATEST, final.name + "\n")
-            _fsync_dir(directory)
+            _fsync(directory)
             _prune(directory, int(block), int(keep))
         except OSError as e:
             problem = f"{final}: {e}"

@@ -98,37 +98,32 @@ def require_petsc(what: str):
 
 
 @contextmanager
-def stage(name: str) -> Iterator[None]:
+def _logged(kind: str, name: str, table: dict, enter: str, leave: str) -> Iterator[None]:
+    """Around the block: ``PETSc.Log.<kind>(name)`` (made once per name, kept in ``table``),
+    its ``enter`` method before and ``leave`` after; nothing without PETSc."""
+    if _PETSc is None:
+        yield
+        return
+    obj = table.get(name)
+    if obj is None:
+        obj = table[name] = getattr(_PETSc.Log, kind)(name)
+    getattr(obj, enter)()
+    try:
+        yield
+    finally:
+        getattr(obj, leave)()
+
+
+def stage(name: str):
     """A ``PETSc.Log.Stage`` named ``name`` (one per name) around the block; no-op without
     PETSc. Stages are the sections of the ``-log_view`` profile."""
-    if _PETSc is None:
-        yield
-        return
-    s = _stages.get(name)
-    if s is None:
-        s = _stages[name] = _PETSc.Log.Stage(name)
-    s.push()
-    try:
-        yield
-    finally:
-        s.pop()
+    return _logged("Stage", name, _stages, "push", "pop")
 
 
-@contextmanager
-def event(name: str) -> Iterator[None]:
+def event(name: str):
     """A ``PETSc.Log.Event`` named ``name`` (one per name) around the block; no-op without
     PETSc."""
-    if _PETSc is None:
-        yield
-        return
-    e = _events.get(name)
-    if e is None:
-        e = _events[name] = _PETSc.Log.Event(name)
-    e.begin()
-    try:
-        yield
-    finally:
-        e.end()
+    return _logged("Event", name, _events, "begin", "end")
 
 
 def option(name: str, default, type=None):
