@@ -109,26 +109,10 @@ args=(run "$scene" --out "$out" --restart --max-wall "$max_wall" --stop-file "$s
 # shellcheck disable=SC2206  # RUN_ARGS is split on purpose
 [[ -z "${RUN_ARGS:-}" ]] || args+=(${RUN_ARGS})
 log "budget for the run: $max_wall s"
-# In the background, so that a signal (qsig -s USR1, or SIGTERM at the limit) can be forwarded to
-# the launcher, which relays it to every rank; bash runs traps only between commands or in wait.
-mpirun -n "$np" "$py" -m micropit_hpc "${args[@]}" &
-pid=$!
-got_signal=0
-forward() {
-    got_signal=1
-    log "SIG$1: asking the run to checkpoint and stop"
-    kill "-$1" "$pid" 2>/dev/null || true
-}
-trap 'forward USR1' USR1
-trap 'forward TERM' TERM
-rc=0
-while :; do
-    wait "$pid" && rc=0 || rc=$?
-    # A trapped signal interrupts `wait` (status > 128) while the run goes on: wait again.
-    if ((rc > 128 && got_signal)); then got_signal=0; continue; fi
-    break
-done
-trap - USR1 TERM
+# A signal (qsig -s USR1, or SIGTERM at the limit) is forwarded to the launcher, which relays it
+# to every rank (jobs/forward.sh).
+source jobs/forward.sh
+run_forwarding "" mpirun -n "$np" "$py" -m micropit_hpc "${args[@]}"
 
 # ---- 4. resubmit on "checkpointed, not finished" ----------------------------------------------------
 case $rc in

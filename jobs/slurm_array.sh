@@ -109,39 +109,15 @@ log "task $task: scene $scene, $np ranks, output $out (requeue count ${SLURM_RES
 "${launch[@]}" "$py" -m micropit_hpc check-env --expect-ranks "$np" \
     || die "check-env failed (see above); not running, not requeueing"
 
-# ---- 2. the run, in the background so that the trap can fire while we wait --------------------------
-# Bash runs a trap only between commands; `wait` is interruptible, a foreground command is not.
+# ---- 2. the run: --restart continues from the newest checkpoint (a fresh start when none) ----------
 args=(run "$scene" --out "$out" --restart --stop-file "$stop_file" "${run_extra[@]}")
 [[ -z "${MAX_WALL:-}" ]] || args+=(--max-wall "$MAX_WALL")
 # shellcheck disable=SC2206  # RUN_ARGS is split on purpose
 [[ -z "${RUN_ARGS:-}" ]] || args+=(${RUN_ARGS})
-"${launch[@]}" "$py" -m micropit_hpc "${args[@]}" &
-pid=$!
 
-# ---- 3. forward Slurm's early warning -------------------------------------------------------------
-# Only to the launcher: mpirun and srun both relay SIGUSR1 to every rank on every node. Signalling
-# the launcher's whole process group would also hit the local ranks directly (twice), and any
-# process in that group without a handler (a helper, a rank still importing Python) would die of
-# SIGUSR1, whose default action is to terminate.
-# SIGTERM (scancel, or the time limit itself) is forwarded too, and we keep waiting for the run.
-got_signal=0
-forward() {
-    got_signal=1
-    log "SIG$1${2:+ ($2)}: asking the run to checkpoint and stop"
-    kill "-$1" "$pid" 2>/dev/null || true
-}
-trap 'forward USR1 "time limit near"' USR1
-trap 'forward TERM' TERM
-
-rc=0
-while :; do
-    wait "$pid" && rc=0 || rc=$?
-    # A trapped signal interrupts `wait` with a status > 128 while the run goes on: wait again
-    # (bash remembers the status of a child that ended meanwhile).
-    if ((rc > 128 && got_signal)); then got_signal=0; continue; fi
-    break
-done
-trap - USR1 TERM
+# ---- 3. forward Slurm's early warning (SIGUSR1) and SIGTERM (scancel, the limit) to the launcher --
+source jobs/forward.sh
+run_forwarding "time limit near" "${launch[@]}" "$py" -m micropit_hpc "${args[@]}"
 
 # ---- 4. requeue on "checkpointed, not finished" -----------------------------------------------------
 case $rc in
