@@ -38,9 +38,10 @@ from micropit_hpc.io.checkpoint import (
     checkpoint_name,
     find_latest,
     read_checkpoint,
+    verify_checkpoint,
     write_checkpoint,
 )
-from micropit_hpc.io.hdf5 import scene_json
+from micropit_hpc.io.hdf5 import h5py_module, scene_json
 from micropit_hpc.life import BlockRecord
 from micropit_hpc.parallel.control import StopControl
 from micropit_hpc.parallel.petsc import stage
@@ -238,23 +239,30 @@ def _read_state(path: Path, study: Study) -> tuple[int, dict[int, list[BlockReco
     return done, records
 
 
-def _costs_from(path: Path, comm, n_items: int) -> list[float] | None:
-    """Each item's last block time from a checkpoint (rank 0 reads, everyone gets it)."""
-    costs = None
+def _inspect(path: Path, study: Study, scene: Scene, force: bool) -> list[float] | None:
+    """Check that the checkpoint ``path`` can resume ``study`` (rank 0 reads it once, every
+    rank gets the verdict: CheckpointError everywhere or nowhere) and return each item's last
+    block time from it (None when not all are known) for the longest-first assignment."""
+    comm = study.comm
+    answer = (None, None)
     if comm.rank == 0:
-        from micropit_hpc.io.hdf5 import h5py_module
-
         try:
+            attrs = verify_checkpoint(path)
+            _check_compatible(path, attrs, study, scene, force)
+            done = int(attrs["block"])
+            if done > study.blocks:
+                raise CheckpointError(f"{path} is block {done}, beyond this scene's "
+                                      f"{study.blocks} blocks (life.cycles_M / life.block_M)")
             with h5py_module().File(path, "r") as f:
-                tab = f["records"][()]
-                done = int(f.attrs["block"])
-            if tab.shape[0] == n_items and done >= 1:
-                last = tab[:, min(done, tab.shape[1]) - 1, RECORD_FIELDS.index("wall_s")]
-                if np.all(np.isfinite(last)):
-                    costs = [float(c) for c in last]
-        except (OSError, KeyError, ValueError):
-            costs = None
-    return comm.bcast(costs, root=0) if comm.size > 1 else costs
+                wall = f["records"][:, done - 1, RECORD_FIELDS.index("wall_s")]
+            costs = [float(c) for c in wall] if np.all(np.isfinite(wall)) else None
+            answer = (None, costs)
+        except CheckpointError as e:
+            answer = (str(e), None)
+    problem, costs = comm.bcast(answer, root=0) if comm.size > 1 else answer
+    if problem:
+        raise CheckpointError(problem)
+    return costs
 
 
 def run_study(scene: Scene, opts: RunOptions, comm,
@@ -274,31 +282,15 @@ def run_study(scene: Scene, opts: RunOptions, comm,
             log(f"--restart: no usable checkpoint in {ckdir}; starting from the beginning")
     with stage("setup"):
         study = Study(scene, comm, opts.ranks_per_item, opts.positions, log)
-        costs = _costs_from(latest, comm, len(study.items)) if latest is not None else None
+        costs = _inspect(latest, study, scene, opts.force) if latest is not None else None
         if costs is not None:
             study.assign(costs)
         study.setup()
     records: dict[int, list[BlockRecord]] = {it.id: [] for it in study.items}
     start = 0
     if latest is not None:
-        attrs = None
-        problem = None
-        if rank0:
-            from micropit_hpc.io.checkpoint import verify_checkpoint
-
-            try:
-                attrs = verify_checkpoint(latest)
-                _check_compatible(latest, attrs, study, scene, opts.force)
-            except CheckpointError as e:
-                problem = str(e)
-        problem = comm.bcast(problem, root=0) if comm.size > 1 else problem
-        if problem:
-            raise CheckpointError(problem)
         with stage("restart"):
             start, records = _read_state(latest, study)
-        if start > study.blocks:
-            raise CheckpointError(f"{latest} is block {start}, beyond this scene's "
-                                  f"{study.blocks} blocks (life.cycles_M / life.block_M)")
         log(f"restarted from {latest} (block {start} of {study.blocks}, "
             f"{'round robin' if costs is None else 'longest-first by last block time'})")
     specs = _field_specs(study)
