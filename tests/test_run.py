@@ -3,6 +3,7 @@
 import csv
 import json
 from dataclasses import replace
+from pathlib import Path
 
 import h5py
 import numpy as np
@@ -13,6 +14,8 @@ from micropit_hpc.cli import main
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.scene import scene_from_dict
 from micropit_hpc.study import SUMMARY_COLUMNS, Study, work_items
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def _write_scene(path, doc):
@@ -96,23 +99,27 @@ def test_one_and_two_ranks_give_bitwise_equal_records(tmp_path_factory):
     assert all(comm.allgather(ok))
 
 
+def coarse_quick_scene(path, positions: str):
+    """scenes/quick.toml with the positions line ``positions`` (replacing ``n = 5``), a 16²
+    window, 4 steps, 4 layers and one block: a few seconds of the real pipeline."""
+    text = (ROOT / "scenes" / "quick.toml").read_text()
+    for old, new in (("n = 5 ", positions), ("n = 64", "n = 16"), ("steps = 10", "steps = 4"),
+                     ("layers = 8", "layers = 4"), ("cycles_M = 3.0", "cycles_M = 1.0")):
+        assert old in text
+        text = text.replace(old, new)
+    path.write_text(text)
+    return path
+
+
 def test_quick_scene_runs_and_the_flank_plot_reads_it(tmp_path):
     """scenes/quick.toml (coarsened) through `micropit run` and postprocess/plot_flank.py."""
     import subprocess
     import sys
-    from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1]
-    text = (root / "scenes" / "quick.toml").read_text()
-    for old, new in (("n = 5 ", "n = 3 "), ("n = 64", "n = 16"), ("steps = 10", "steps = 4"),
-                     ("layers = 8", "layers = 4"), ("cycles_M = 3.0", "cycles_M = 1.0")):
-        assert old in text
-        text = text.replace(old, new)
-    scene = tmp_path / "quick.toml"
-    scene.write_text(text)
+    scene = coarse_quick_scene(tmp_path / "quick.toml", "n = 3 ")
     out = tmp_path / "out"
     assert main(["run", str(scene), "--out", str(out)]) == 0
-    run = subprocess.run([sys.executable, str(root / "postprocess" / "plot_flank.py"), str(out)],
+    run = subprocess.run([sys.executable, str(ROOT / "postprocess" / "plot_flank.py"), str(out)],
                          capture_output=True, text=True, timeout=120)
     assert run.returncode == 0, run.stderr
     rows = list(csv.DictReader(open(out / "flank.csv")))
@@ -138,18 +145,8 @@ def test_pure_sliding_is_a_clear_error_for_the_life_run(tmp_path, capsys, S):
 def test_positions_at_the_ends_of_the_path_of_contact_run(tmp_path):
     """Near-zero load at the very start and end of the path (p0 of a few MPa, with linear load
     sharing): the life run finishes with finite numbers, A_p in [0, 100], no damage < 0."""
-    from pathlib import Path
-
-    root = Path(__file__).resolve().parents[1]
-    text = (root / "scenes" / "quick.toml").read_text()
     # A and E of this pair are at roll angles 17.61235 and 37.93559 deg (micropit contact)
-    for old, new in (("n = 5 ", "roll_angle_deg = [17.6124, 37.9355] "), ("n = 64", "n = 16"),
-                     ("steps = 10", "steps = 4"), ("layers = 8", "layers = 4"),
-                     ("cycles_M = 3.0", "cycles_M = 1.0")):
-        assert old in text
-        text = text.replace(old, new)
-    scene = tmp_path / "ends.toml"
-    scene.write_text(text)
+    scene = coarse_quick_scene(tmp_path / "ends.toml", "roll_angle_deg = [17.6124, 37.9355] ")
     out = tmp_path / "out"
     assert main(["run", str(scene), "--out", str(out)]) == 0
     rows = list(csv.DictReader(open(out / "summary.csv")))
