@@ -139,10 +139,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
         for iid, recs in records.items():
             if recs and recs[-1].wear_step > limit * (1 + 1e-9) and iid not in warned:
                 warned.add(iid)
+                why = ("for a stable wear update" if scene.life.wear_integration == "explicit"
+                       else "to follow the running-in in finer steps (the relaxed update keeps "
+                       "each step within the elastic relief of the contact spots)")
                 log(f"warning: item {iid}, block {k}: one sub-block wore {recs[-1].wear_step:.3g}"
                     f" × R_q away somewhere (life.max_wear_fraction = {limit:g}); the split "
                     f"stopped at life.max_splits = {scene.life.max_splits}. Raise max_splits "
-                    "(or lower life.block_M) for a stable wear update (docs/life.md)")
+                    f"(or lower life.block_M) {why} (docs/life.md)")
         ap = max((r[-1].Ap[0] for r in records.values() if r), default=0.0)
         progress[0].update(k, f"{k * len(records)} item-blocks of {blocks * len(records)}, "
                               f"max A_p body 1 {ap:.3g} %")

@@ -12,6 +12,11 @@ intact material by more than ``max_damage_step``. The sub-block is then cut to t
 and halved while the damage rise is too large, but never below ΔN/``max_splits``. ΔN stays the
 checkpoint and report interval.
 
+**Wear integration [choice]** (``wear_integration``, :mod:`micropit_hpc.wear`): the wear of a
+sub-block is ``relaxed`` (default: the stiff solid-contact part integrated as the linearised
+pressure relief it causes) or ``explicit`` (n Δh_i, MODEL.md §4.6 as written). The split's
+wear limit applies to the integrated depth.
+
 Units: SI (metres, pascals, cycles). Physics only: no I/O, no MPI.
 """
 
@@ -32,7 +37,7 @@ from micropit_hpc.parallel.petsc import event
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.pits import detach, shift_columns
 from micropit_hpc.surfaces import Topography
-from micropit_hpc.wear import archard_rate
+from micropit_hpc.wear import WearRate, archard_wear
 
 __all__ = ["BlockRecord", "BodyCycle", "BodyState", "CycleResult", "LifeParams", "LifeState",
            "apply_cycles", "evaluate_cycle", "initial_state", "micro_cycles",
@@ -54,6 +59,7 @@ class LifeParams:
     max_damage_step: float = 0.25
     max_splits: int = 4
     pit_contact: str = "unloaded"
+    wear_integration: str = "relaxed"
 
     @classmethod
     def from_scene(cls, scene, k_lub: float) -> LifeParams:
@@ -63,7 +69,7 @@ class LifeParams:
                    macro_samples=f.macro_samples, block=life.block,
                    max_wear_fraction=life.max_wear_fraction,
                    max_damage_step=life.max_damage_step, max_splits=life.max_splits,
-                   pit_contact=life.pit_contact)
+                   pit_contact=life.pit_contact, wear_integration=life.wear_integration)
 
 
 @dataclass
@@ -106,11 +112,11 @@ class LifeState:
 @dataclass(frozen=True)
 class BodyCycle:
     """One load cycle's effect on one body: damage per cycle (N_z, n_x, n_y), wear per cycle
-    (n_x, n_y) [m], the rough and smooth Dang Van stresses [Pa], the micro-cycles per load
-    cycle n_μ and the counterface's peak spacing λ_c [m]."""
+    (n_x, n_y) by regime, the rough and smooth Dang Van stresses [Pa], the micro-cycles per
+    load cycle n_μ and the counterface's peak spacing λ_c [m]."""
 
     damage_rate: np.ndarray
-    wear_rate: np.ndarray
+    wear: WearRate
     tau_rough: np.ndarray
     tau_smooth: np.ndarray
     n_micro: float
@@ -179,14 +185,25 @@ def rainflow_steps(c: ContactConditions, steps: int, lam_c: float) -> int:
     return max(steps, math.ceil(8.0 * c.b * abs(c.S) / lam_c - 1e-9))
 
 
+def _around_pits(bs: BodyState) -> np.ndarray:
+    """The surface the contact sees with unloaded pits: each pitted column at the height it
+    had before its pit (heights + pit depth), but no higher than the mean of the intact
+    columns. A pitted column carries no load and so no longer wears; without the cap its
+    pre-pit height would stand up as a spike once the intact surface around it has worn
+    away (a micron after a few M cycles at k_lub = 1e-11 s)."""
+    h = bs.heights + bs.pit_depth
+    if bs.pitted.any() and not bs.pitted.all():
+        h = np.where(bs.pitted, np.minimum(h, bs.heights[~bs.pitted].mean()), h)
+    return h
+
+
 def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -> CycleResult:
     """One load cycle on the current surfaces (MODEL.md §4): contact at every step, stresses
     and Dang Van per body, damage and wear per cycle."""
     t0 = time.perf_counter()
     g = cycle.grid
     if params.pit_contact == "unloaded":   # the surface around the pits; pits carry nothing
-        tops = tuple(Topography(b.heights + b.pit_depth, g.dx, g.dy, "evolved")
-                     for b in state.bodies)
+        tops = tuple(Topography(_around_pits(b), g.dx, g.dy, "evolved") for b in state.bodies)
         cycle.set_surfaces(tops, pits=tuple(b.pitted for b in state.bodies))
     else:
         tops = tuple(Topography(b.heights, g.dx, g.dy, "evolved") for b in state.bodies)
@@ -227,19 +244,21 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -
             else:
                 rate = (params.woehler.damage(tau_smooth)
                         + n_mu * params.woehler.damage(dv.tau_dv))
-        hardness = (cycle.scene.body1 if body == 1 else cycle.scene.body2).hardness
+        own, other = ((cycle.scene.body1, cycle.scene.body2) if body == 1
+                      else (cycle.scene.body2, cycle.scene.body1))
         with event("wear_rate"):
-            wear = archard_rate([f.pressure for f in fields], [f.solid for f in fields],
+            wear = archard_wear([f.pressure for f in fields], [f.solid for f in fields],
                                 [cycle.slip(body, f.t) for f in fields], g.dx, c.u_s,
-                                hardness, params.k_lub, params.f_w)
-        out.append(BodyCycle(damage_rate=rate, wear_rate=wear, tau_rough=dv.tau_dv,
+                                own.hardness, other.hardness, params.k_lub, params.f_w,
+                                cycle.half_spaces.self_compliance)
+        out.append(BodyCycle(damage_rate=rate, wear=wear, tau_rough=dv.tau_dv,
                              tau_smooth=tau_smooth, n_micro=n_mu, lam_c=lam_c))
     return CycleResult(bodies=tuple(out), phi=phi, solid_fraction=solid, steps=cycle.steps,
                        wall_s=time.perf_counter() - t0)
 
 
 def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
-                 slab: Slab | None = None) -> None:
+                 slab: Slab | None = None, wear_integration: str = "relaxed") -> None:
     """Advance both bodies by ``n`` load cycles at the rates of ``result`` (in place):
     Miner's rule, wear (heights down, damage columns up), then micropits (MODEL.md §4.4–§4.6).
     ``slab``: the rows of the damage this rank holds (default: the whole window); the pits
@@ -247,7 +266,7 @@ def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
         rows = slice(None) if slab is None else slab.rows
         bs.damage += n * bc.damage_rate
-        dh = n * bc.wear_rate
+        dh = bc.wear.depth(n, wear_integration)
         if dh.any():
             bs.heights -= dh
             bs.wear += dh
@@ -277,15 +296,30 @@ def _damage_rise(state: LifeState, result: CycleResult, n: float,
     return rise
 
 
+def _wear_limited(wear: WearRate, limit: float, n: float, integration: str) -> float:
+    """The largest m ≤ n whose integrated wear stays within ``limit`` everywhere (the
+    depth is non-decreasing in the cycles: bisection, to 1e-6 relative)."""
+    if float(wear.depth(n, integration).max()) <= limit:
+        return n
+    lo, hi = 0.0, n
+    while hi - lo > 1e-6 * hi:
+        mid = 0.5 * (lo + hi)
+        if float(wear.depth(mid, integration).max()) <= limit:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
 def sub_block_cycles(state: LifeState, result: CycleResult, left: float,
                      params: LifeParams, slab: Slab | None = None) -> float:
     """Cycles of the next sub-block: the adaptive split (module docstring)."""
     floor = params.block / params.max_splits
     n = left
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
-        w = float(bc.wear_rate.max())
-        if w > 0 and bs.rq0 > 0:
-            n = min(n, params.max_wear_fraction * bs.rq0 / w)
+        if bs.rq0 > 0:
+            n = min(n, _wear_limited(bc.wear, params.max_wear_fraction * bs.rq0, n,
+                                     params.wear_integration))
     n = max(n, min(floor, left))
     while n > floor and _damage_rise(state, result, n, slab) > params.max_damage_step:
         n = max(0.5 * n, floor)
@@ -307,9 +341,10 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
         n = sub_block_cycles(state, result, left, params, cycle.slab)
         for bs, bc in zip(state.bodies, result.bodies, strict=True):
             if bs.rq0 > 0:
-                wear_step = max(wear_step, n * float(bc.wear_rate.max()) / bs.rq0)
+                step = bc.wear.depth(n, params.wear_integration).max()
+                wear_step = max(wear_step, float(step) / bs.rq0)
         with event("apply_cycles"):
-            apply_cycles(state, result, n, cycle.z, cycle.slab)
+            apply_cycles(state, result, n, cycle.z, cycle.slab, params.wear_integration)
         phi_acc += n * result.phi
         n_done += n
         left -= n

@@ -314,6 +314,14 @@ surfaces, with the adaptive split of a block.
         "small-slope half-space and the linearised micro-EHL represent and sets off a "
         "cascade of failures around every pit, docs/life.md).", default="unloaded",
         choices=("unloaded", "geometric")),
+    Key("wear_integration", "wear_integration", "str", "How the wear of a sub-block is "
+        "integrated [choice]. `relaxed`: the solid-contact part of the Archard rate decays as "
+        "the wear relieves the pressure of each contact spot (lowering a spot by δ lowers its "
+        "pressure by δ/K₀, K₀ the self-compliance of a grid cell), integrated exactly over "
+        "the sub-block; the film part stays explicit; `explicit`: n·Δh, MODEL.md §4.6 as "
+        "written, which digs contact spots many R_q deep when the sub-block is much longer "
+        "than the few thousand cycles their wear takes to relieve them (docs/life.md).",
+        default="relaxed", choices=("relaxed", "explicit")),
 ))
 
 _FILM = Section("film", "Central film thickness of the smooth contact (MODEL.md §2.4).", (
@@ -566,6 +574,7 @@ class LifeSpec:
     max_damage_step: float = 0.25
     max_splits: int = 4
     pit_contact: str = "unloaded"
+    wear_integration: str = "relaxed"
 
 
 @dataclass(frozen=True)

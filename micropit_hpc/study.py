@@ -175,7 +175,13 @@ class Study:
         the world, gathered in item order."""
         local = {}
         for it in self.mine:
-            rec = self.runs[it.id].run_block(self.block_cycles(k))
+            try:
+                rec = self.runs[it.id].run_block(self.block_cycles(k))
+            except MicropitError as e:   # say which item failed: the scene may hold dozens
+                raise MicropitError(
+                    f"{self.scene.source}: item {it.id} (position {it.position}, k_lub "
+                    f"{it.k_lub:g} s, roughness × {it.scale:g}, patch {it.patch}), block {k}: "
+                    f"{e}") from e
             if self.group.is_root:
                 local[it.id] = rec
         gathered = self.comm.allgather(local)

@@ -1,6 +1,7 @@
 """The life loop at one contact point: Miner, wear, pits, moving damage columns, adaptive
 blocks (MODEL.md §4.4–§5)."""
 
+import itertools
 
 import numpy as np
 import pytest
@@ -19,7 +20,7 @@ from micropit_hpc.life import (
 )
 from micropit_hpc.pits import detach, layer_bottoms, shift_columns
 from micropit_hpc.scene import scene_from_dict
-from micropit_hpc.wear import archard_rate, to_material_frame
+from micropit_hpc.wear import WearRate, archard_wear, to_material_frame
 
 
 def tiny_doc(slide_roll=(0.0, 0.3), k_lub=(0.0,)):
@@ -93,17 +94,24 @@ def test_archard_rate_formula():
     """Uniform p, half the steps solid: Δh = ½ |u_s|/H · mean(k p), k = f_w k_lub or k_lub."""
     p = np.full((8, 4), 2e9)
     solid = [np.ones((8, 4), bool), np.zeros((8, 4), bool)]
-    dh = archard_rate([p, p], solid, [0.0, 1e-6], 1e-6, u_s=0.33, hardness=7e9, k_lub=1e-11,
-                      f_w=10.0)
+    w = archard_wear([p, p], solid, [0.0, 1e-6], 1e-6, u_s=0.33, hardness=7e9,
+                     counter_hardness=8e9, k_lub=1e-11, f_w=10.0, cell_compliance=3e-17)
     expect = 0.5 * 0.33 / 7e9 * (10 * 1e-11 * 2e9 + 1e-11 * 2e9) / 2
-    np.testing.assert_allclose(dh, expect, rtol=1e-14)
-    assert not archard_rate([p], [solid[0]], [0.0], 1e-6, 0.0, 7e9, 1e-11, 10.0).any()
+    np.testing.assert_allclose(w.rate, expect, rtol=1e-14)
+    np.testing.assert_allclose(w.fluid, 0.5 * 0.33 / 7e9 * 1e-11 * 2e9 / 2, rtol=1e-14)
+    # ρ = ½|u_s| f_w k_lub (1/H_1 + 1/H_2) f_s / K₀ with f_s = ½
+    np.testing.assert_allclose(w.relax, 0.5 * 0.33 * 10 * 1e-11 * (1 / 7e9 + 1 / 8e9) * 0.5
+                               / 3e-17, rtol=1e-14)
+    still = archard_wear([p], [solid[0]], [0.0], 1e-6, 0.0, 7e9, 7e9, 1e-11, 10.0, 3e-17)
+    assert not still.rate.any() and not still.depth(1e6).any()
 
 
 # ---- Miner, wear and pits through apply_cycles -------------------------------------------------
 def _fake_result(shape, nz, d_rate, w_rate):
     bodies = tuple(BodyCycle(damage_rate=np.full((nz, *shape), d_rate),
-                             wear_rate=np.full(shape, w_rate), tau_rough=np.zeros((nz, *shape)),
+                             wear=WearRate(np.zeros(shape), np.full(shape, w_rate),
+                                           np.zeros(shape)),
+                             tau_rough=np.zeros((nz, *shape)),
                              tau_smooth=np.zeros(nz), n_micro=0.0, lam_c=np.inf)
                    for _ in range(2))
     return CycleResult(bodies=bodies, phi=0.0, solid_fraction=0.0, steps=1, wall_s=0.0)
@@ -115,7 +123,7 @@ def test_miner_additivity(tiny):
     cyc = PositionCycle(study, 2)
     res = evaluate_cycle(cyc, initial_state(cyc), LifeParams.from_scene(scene, 0.0))
     scaled = CycleResult(bodies=tuple(BodyCycle(damage_rate=b.damage_rate / (10 * max(
-        b.damage_rate.max(), 1e-300)), wear_rate=b.wear_rate, tau_rough=b.tau_rough,
+        b.damage_rate.max(), 1e-300)), wear=b.wear, tau_rough=b.tau_rough,
         tau_smooth=b.tau_smooth, n_micro=b.n_micro, lam_c=b.lam_c) for b in res.bodies),
         phi=res.phi, solid_fraction=res.solid_fraction, steps=res.steps, wall_s=0.0)
     a, b = initial_state(cyc), initial_state(cyc)
@@ -175,8 +183,8 @@ def test_sliding_pits_and_worn_volume(tiny):
     for n in (2e5, 3e5):
         res = evaluate_cycle(cyc, st, prm)
         for i in range(2):
-            increments[i] += n * res.bodies[i].wear_rate
-        apply_cycles(st, res, n, cyc.z)
+            increments[i] += res.bodies[i].wear.depth(n, prm.wear_integration)
+        apply_cycles(st, res, n, cyc.z, wear_integration=prm.wear_integration)
     for bs, h, inc in zip(st.bodies, h0, increments, strict=True):
         np.testing.assert_allclose(bs.wear, inc, rtol=1e-12, atol=0)
         np.testing.assert_allclose(h - bs.heights, bs.wear + bs.pit_depth, rtol=1e-9,
@@ -192,7 +200,7 @@ def test_adaptive_split_for_wear_that_would_remove_the_roughness(tiny):
     st = initial_state(cyc)
     prm = LifeParams.from_scene(scene, 1e-8)       # removes microns per thousand cycles
     res = evaluate_cycle(cyc, st, prm)
-    assert 1e6 * res.bodies[0].wear_rate.max() > 10 * st.bodies[0].rq0
+    assert 1e6 * res.bodies[0].wear.rate.max() > 10 * st.bodies[0].rq0
     rec = run_block(cyc, st, prm)
     assert rec.sub_blocks == prm.max_splits
     quiet = LifeParams.from_scene(scene, 0.0)
@@ -211,3 +219,68 @@ def test_a_block_records_the_largest_wear_step(tiny):
         rec = run_block(cycle, state, params)
         assert rec.wear_step > 0.0
         assert (rec.wear_step <= params.max_wear_fraction * (1 + 1e-9)) == within
+
+
+# ---- wear integration over a sub-block (life.wear_integration) --------------------------------
+def test_cell_self_compliance_matches_the_uniformly_loaded_square():
+    """K₀ of the discrete operator against Love's centre displacement of a square of side s
+    under uniform pressure, both bodies: 8 s asinh(1)/(π E')."""
+    import math
+
+    from micropit_hpc.lubrication.dry import ElasticHalfSpaces
+    from micropit_hpc.spectral import Grid
+    s, E = 3e-6, 230e9
+    exact = 8 * s * math.asinh(1.0) / (math.pi * E)
+    for n in (32, 128):
+        k0 = ElasticHalfSpaces(Grid(n, n, n * s, n * s), E).self_compliance
+        assert k0 == pytest.approx(exact, rel=0.035)
+    # finer windows converge towards it (fewer periodic images, less spectral truncation)
+    assert (abs(ElasticHalfSpaces(Grid(128, 128, 128 * s, 128 * s), E).self_compliance - exact)
+            < abs(ElasticHalfSpaces(Grid(32, 32, 32 * s, 32 * s), E).self_compliance - exact))
+
+
+def test_relaxed_wear_is_the_integral_of_the_relieved_rate():
+    """depth(n) = ∫₀ⁿ [Δh_fluid + Δh_solid e^{−ρN}] dN, equal to n Δh where ρ = 0, to
+    n Δh (1 − ρn/2) for ρn ≪ 1, bounded by n Δh_fluid + Δh_solid/ρ, non-decreasing in n."""
+    from scipy.integrate import quad
+    solid = np.array([2e-12, 2e-12, 5e-13, 0.0])
+    fluid = np.array([1e-13, 0.0, 3e-14, 2e-13])
+    relax = np.array([1e-4, 2e-5, 0.0, 0.0])
+    w = WearRate(solid, fluid, relax)
+    for n in (1e3, 2.5e5, 1e6):
+        got = w.depth(n)
+        for i, (s, f, r) in enumerate(zip(solid, fluid, relax, strict=True)):
+            exact = quad(lambda N, s=s, f=f, r=r: f + s * np.exp(-r * N), 0, n,
+                         epsabs=0, epsrel=1e-12, limit=200)[0]
+            assert got[i] == pytest.approx(exact, rel=1e-9)
+        assert (got <= w.depth(n, "explicit") * (1 + 1e-15)).all()
+        np.testing.assert_array_equal(got[2:], w.depth(n, "explicit")[2:])
+        bound = n * fluid + np.divide(solid, relax, out=np.full(4, np.inf), where=relax > 0)
+        assert (got <= bound).all()
+    tiny_step = 1e-2                                    # ρn = 1e-6
+    np.testing.assert_allclose(w.depth(tiny_step)[:1], tiny_step * (fluid + solid
+                               * (1 - relax * tiny_step / 2))[:1], rtol=1e-12)
+    steps = [w.depth(n) for n in np.geomspace(1, 1e7, 30)]
+    assert all((b >= a * (1 - 1e-14)).all() for a, b in itertools.pairwise(steps))
+    with pytest.raises(ValueError, match="relaxed, explicit"):
+        w.depth(1.0, "implicit")
+
+
+def test_relaxed_wear_stays_within_the_elastic_relief_of_a_contact_spot(tiny):
+    """A wear coefficient that would remove the roughness many times over in one block: the
+    explicit update digs the contact spots hundreds of R_q deep; the relaxed one removes at most
+    the film's share plus the spot's elastic deflection K₀ p/(1 + H_i/H_j) ≤ K₀ p_lim/2."""
+    scene, study = tiny
+    cyc = PositionCycle(study, 2)
+    st = initial_state(cyc)
+    res = evaluate_cycle(cyc, st, LifeParams.from_scene(scene, 1e-8))
+    k0 = cyc.half_spaces.self_compliance
+    H1, H2 = scene.body1.hardness, scene.body2.hardness
+    for i, (bs, bc) in enumerate(zip(st.bodies, res.bodies, strict=True)):
+        n = 1e6
+        assert bc.wear.depth(n, "explicit").max() > 100 * bs.rq0
+        relaxed = bc.wear.depth(n)
+        Hi, Hj = (H1, H2) if i == 0 else (H2, H1)
+        assert (relaxed <= n * bc.wear.fluid + k0 * cyc.p_lim / (1 + Hi / Hj) * (1 + 1e-9)).all()
+        on_spots = bc.wear.relax > 0
+        assert on_spots.any() and not (bc.wear.solid[~on_spots]).any()

@@ -72,3 +72,23 @@ def test_a_mostly_pitted_window_still_carries_the_load(cycle):
             assert 0.0 <= f.pressure.min() and f.pressure.max() <= cycle.p_lim
         finally:
             cycle.set_surfaces(cycle.surfaces)
+
+
+def test_a_pitted_column_never_stands_above_the_worn_surface_around_it():
+    """Unloaded pits: a pitted column no longer wears, so its pre-pit height is capped at the
+    mean of the intact columns; otherwise it would stand up as a spike in the contact."""
+    from micropit_hpc.life import BodyState, _around_pits
+    rng = np.random.default_rng(4)
+    h0 = rng.normal(0.0, 0.2e-6, (16, 16))
+    pitted = np.zeros((16, 16), bool)
+    pitted[3, 4] = pitted[9, 9] = True
+    h0[3, 4] = 0.5e-6                     # a high point that pitted early ...
+    depth = np.where(pitted, 2e-6, 0.0)
+    wear = np.where(pitted, 0.0, 1e-6)    # ... then the intact surface wore a micron away
+    bs = BodyState(heights=h0 - wear - depth, damage=np.zeros((2, 16, 16)), pitted=pitted,
+                   wear=wear, pit_depth=depth, rq0=0.2e-6)
+    top = _around_pits(bs)
+    intact_mean = bs.heights[~pitted].mean()
+    assert top[3, 4] == pytest.approx(intact_mean) and top[3, 4] < h0[3, 4] - 1e-6
+    np.testing.assert_array_equal(top[~pitted], bs.heights[~pitted])
+    assert (top[pitted] <= intact_mean).all()

@@ -156,3 +156,15 @@ def test_positions_at_the_ends_of_the_path_of_contact_run(tmp_path):
         for k in ("Ap_pct", "max_damage", "wear_um", "Rq_um"):
             assert np.isfinite(float(r[k]))
         assert 0.0 <= float(r["Ap_pct"]) <= 100.0 and float(r["max_damage"]) >= 0.0
+
+
+def test_a_failing_item_is_named_in_the_error(tmp_path, capsys):
+    """A contact that cannot converge stops the run with the item, position, k_lub and
+    block in the message, not only the solver's words."""
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["lubrication"] = {"max_iterations": 10, "tolerance": 1e-14}
+    scene = _write_scene(tmp_path / "s.toml", doc)
+    assert main(["run", str(scene), "--out", str(tmp_path / "out")]) != 0
+    err = capsys.readouterr().err
+    assert "item 0 (position 1, k_lub 0 s, roughness × 1, patch 0), block 1:" in err
+    assert "did not converge" in err

@@ -75,6 +75,16 @@ class ElasticHalfSpaces:
         return fft.inverse(fft.forward(p) * self.compliance)
 
     @cached_property
+    def self_compliance(self) -> float:
+        """K₀ [m/Pa]: the combined displacement of one cell under unit pressure on that cell
+        alone, on this grid: the diagonal of the discrete compliance operator. For a square
+        cell of side s it is within 3 % of the continuum value 8 s asinh(1)/(π E') (uniform
+        pressure on a square, Love 1929; Johnson, *Contact Mechanics* (1985) §3.2)."""
+        unit = np.zeros(self.grid.shape)
+        unit[0, 0] = 1.0
+        return float(self.displacement(unit)[0, 0])
+
+    @cached_property
     def stiffness(self) -> np.ndarray:
         """E'κ/4 per mode (0 at the mean): p̂ = stiffness · û, the inverse response."""
         stiff = np.zeros_like(self.compliance)
