@@ -258,15 +258,18 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -
 
 
 def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
-                 slab: Slab | None = None, wear_integration: str = "relaxed") -> None:
+                 slab: Slab | None = None, wear_integration: str = "relaxed") -> list[float]:
     """Advance both bodies by ``n`` load cycles at the rates of ``result`` (in place):
     Miner's rule, wear (heights down, damage columns up), then micropits (MODEL.md §4.4–§4.6).
     ``slab``: the rows of the damage this rank holds (default: the whole window); the pits
-    found on each slab are shared so that every rank keeps the whole surface. Collective."""
+    found on each slab are shared so that every rank keeps the whole surface. Collective.
+    Returns the largest wear depth applied to each body."""
+    worn = []
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
         rows = slice(None) if slab is None else slab.rows
         bs.damage += n * bc.damage_rate
         dh = bc.wear.depth(n, wear_integration)
+        worn.append(float(dh.max()))
         if dh.any():
             bs.heights -= dh
             bs.wear += dh
@@ -280,6 +283,7 @@ def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
             bs.pit_depth += depth
             bs.pitted |= new
     state.cycles += n
+    return worn
 
 
 def _damage_rise(state: LifeState, result: CycleResult, n: float,
@@ -339,12 +343,11 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
     while left > 0:
         result = evaluate_cycle(cycle, state, params)
         n = sub_block_cycles(state, result, left, params, cycle.slab)
-        for bs, bc in zip(state.bodies, result.bodies, strict=True):
-            if bs.rq0 > 0:
-                step = bc.wear.depth(n, params.wear_integration).max()
-                wear_step = max(wear_step, float(step) / bs.rq0)
         with event("apply_cycles"):
-            apply_cycles(state, result, n, cycle.z, cycle.slab, params.wear_integration)
+            worn = apply_cycles(state, result, n, cycle.z, cycle.slab, params.wear_integration)
+        for bs, w in zip(state.bodies, worn, strict=True):
+            if bs.rq0 > 0:
+                wear_step = max(wear_step, w / bs.rq0)
         phi_acc += n * result.phi
         n_done += n
         left -= n
