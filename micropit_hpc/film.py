@@ -78,3 +78,16 @@ def specific_film_thickness(hc, Rq):
     if Rq == 0.0:
         return np.full_like(hc, np.inf)
     return hc / Rq
+
+
+def iso_lambda_gf(h, Ra1: float, Ra2: float):
+    """ISO/TS 6336-22:2018 Method B specific lubricant film thickness λ_GF = h / R_a with the
+    mean arithmetic roughness R_a = ½(R_a1 + R_a2) of the two flanks (MODEL.md §6). ``h`` is
+    the local film (the standard's h_Y, a Dowson–Higginson form: our ``film.model = "DH61"``
+    at the local load and speeds, without its thermal sliding parameter S_GF). Infinite for two
+    smooth flanks."""
+    h = np.asarray(h, dtype=float)
+    ra = 0.5 * (Ra1 + Ra2)
+    if ra == 0.0:
+        return np.full_like(h, np.inf)
+    return h / ra

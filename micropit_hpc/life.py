@@ -60,6 +60,7 @@ class LifeParams:
     max_splits: int = 4
     pit_contact: str = "unloaded"
     wear_integration: str = "relaxed"
+    peak_spacing_min_cells: float = 4.0
 
     @classmethod
     def from_scene(cls, scene, k_lub: float) -> LifeParams:
@@ -69,7 +70,8 @@ class LifeParams:
                    macro_samples=f.macro_samples, block=life.block,
                    max_wear_fraction=life.max_wear_fraction,
                    max_damage_step=life.max_damage_step, max_splits=life.max_splits,
-                   pit_contact=life.pit_contact, wear_integration=life.wear_integration)
+                   pit_contact=life.pit_contact, wear_integration=life.wear_integration,
+                   peak_spacing_min_cells=f.peak_spacing_min_cells)
 
 
 @dataclass
@@ -185,16 +187,33 @@ def rainflow_steps(c: ContactConditions, steps: int, lam_c: float) -> int:
     return max(steps, math.ceil(8.0 * c.b * abs(c.S) / lam_c - 1e-9))
 
 
+#: Width (grid cells) of the Gaussian over which a pitted column takes the wear around it.
+PIT_FILL_CELLS = 2.0
+
+
 def _around_pits(bs: BodyState) -> np.ndarray:
     """The surface the contact sees with unloaded pits: each pitted column at the height it
-    had before its pit (heights + pit depth), but no higher than the mean of the intact
-    columns. A pitted column carries no load and so no longer wears; without the cap its
-    pre-pit height would stand up as a spike once the intact surface around it has worn
-    away (a micron after a few M cycles at k_lub = 1e-11 s)."""
+    had before its pit (heights + pit depth), lowered by the wear it has missed since.
+
+    A pitted column carries no load and so no longer wears, while the intact surface around it
+    does; left at its pre-pit height it would stand up as a spike once the surface around it
+    has worn (a micron after a few M cycles at k_lub = 1e-11 s), and take most of the load of
+    the contact solve that the unloading then removes. The wear it missed is the local mean
+    wear of the intact columns around it (a Gaussian of 2 cells, periodic, normalised over the
+    intact columns; the mean of all intact columns inside a pit too large for it) less its own.
+    Without wear this is the pre-pit surface exactly: a pitted asperity keeps its shape and
+    the surface around it its load path (MODEL.md §4.5, docs/life.md)."""
     h = bs.heights + bs.pit_depth
-    if bs.pitted.any() and not bs.pitted.all():
-        h = np.where(bs.pitted, np.minimum(h, bs.heights[~bs.pitted].mean()), h)
-    return h
+    if not bs.pitted.any() or bs.pitted.all() or not bs.wear.any():
+        return h
+    from scipy.ndimage import gaussian_filter
+
+    intact = (~bs.pitted).astype(float)
+    weight = gaussian_filter(intact, PIT_FILL_CELLS, mode="wrap")
+    local = gaussian_filter(bs.wear * intact, PIT_FILL_CELLS, mode="wrap")
+    around = np.where(weight > 1e-3, local / np.maximum(weight, 1e-300),
+                      bs.wear[~bs.pitted].mean())
+    return np.where(bs.pitted, h - np.maximum(around - bs.wear, 0.0), h)
 
 
 def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -> CycleResult:
@@ -208,7 +227,8 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -
     else:
         tops = tuple(Topography(b.heights, g.dx, g.dy, "evolved") for b in state.bodies)
         cycle.set_surfaces(tops)
-    lam = tuple(t.peak_spacing_x() if t.rq > 0 else math.inf for t in tops)
+    lam = tuple(t.peak_spacing_x(params.peak_spacing_min_cells * g.dx) if t.rq > 0
+                else math.inf for t in tops)
     fields, p_prev = [], None
     for j in range(cycle.steps):
         with event("contact"):

@@ -78,6 +78,11 @@ gear 2 is the wheel (body 2). Give either `[gear]` with `[positions]`, or `[disc
     Key("accuracy_grade", "accuracy_grade", "int", "ISO 1328 accuracy grade Q, used only by "
         "`load_sharing = \"iso_unmodified\"`; grades finer than 7 are taken as 7 (below it the "
         "ISO ramps would lose load).", default=7, lo=0, hi=12),
+    Key("slide_roll_imposed", "slide_roll_imposed", "float", "|S| imposed at every position, "
+        "with the sign of the mesh's own S (0 at the pitch point, taken as |S| < 0.001); ū, "
+        "the load and the film are kept, u1 = ū(1 + S/2), u2 = ū(1 − S/2). The paper's "
+        "Table 5 (S = ±0.044) separates the effect of the pressure from that of the "
+        "sliding. Default: the kinematic S of the mesh.", default=None, lo=0, hi=2, hi_open=True),
 ), children=("pinion", "wheel"))
 
 
@@ -276,6 +281,12 @@ the material above it detaches as a micropit, when its Miner damage reaches 1.
     Key("macro_samples", "macro_samples", "int", "Samples of the smooth macro path through "
         "the contact (x from −3b to 3b, plus the unloaded state).", default=241, lo=8,
         hi=100000),
+    Key("peak_spacing_min_cells", "peak_spacing_min_cells", "float", "[choice] Wavelengths "
+        "shorter than this many grid spacings are left out of the spectral moments that give "
+        "λ_c = 2π√(m2/m4): they are not resolved asperities but the grid-scale texture the "
+        "local wear and pit updates leave, which m4 (∝ k⁴) would otherwise count as peaks "
+        "(λ_c fell from 33 to 2.6 cells after 3 M cycles of wear, docs/life.md). 2 keeps every "
+        "resolved wavelength (down to Nyquist).", default=4.0, lo=2, hi=1e4),
 ))
 
 _WEAR = Section("wear", """
@@ -467,6 +478,7 @@ class GearSpec:
     speed: float
     load_sharing: str
     accuracy_grade: int
+    slide_roll_imposed: float | None = None
 
 
 @dataclass(frozen=True)
@@ -554,6 +566,7 @@ class FatigueSpec:
     B: float = 1600e6
     alpha: float | None = None
     macro_samples: int = 241
+    peak_spacing_min_cells: float = 4.0
 
 
 @dataclass(frozen=True)
@@ -769,7 +782,8 @@ def _read_gear(table: Mapping[str, Any], source: str) -> tuple[GearSpec, GearMes
         raise SceneError(source, f"the gear pair cannot mesh: {e}; check {', '.join(keys)}"
                          ) from None
     spec = GearSpec(geometry=geo, torque=g["torque"], speed=g["speed"],
-                    load_sharing=g["load_sharing"], accuracy_grade=g["accuracy_grade"])
+                    load_sharing=g["load_sharing"], accuracy_grade=g["accuracy_grade"],
+                    slide_roll_imposed=g["slide_roll_imposed"])
     return spec, mesh
 
 

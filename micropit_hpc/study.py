@@ -87,7 +87,8 @@ class ItemRun:
         self.params = LifeParams.from_scene(scene, item.k_lub)
         steps = scene.window.steps
         if self.params.counting == "rainflow":
-            lam_c = min(s.peak_spacing_x() if s.rq > 0 else math.inf for s in surfaces)
+            cut = self.params.peak_spacing_min_cells * grid.dx
+            lam_c = min(s.peak_spacing_x(cut) if s.rq > 0 else math.inf for s in surfaces)
             steps = rainflow_steps(study.conditions[item.position - 1], steps, lam_c)
             if steps > scene.window.steps and log and (comm is None or comm.rank == 0):
                 log(f"item {item.id}: rainflow counting raises the time steps from "
@@ -149,6 +150,7 @@ class Study:
         self.assignment = assign_items(len(self.items), self.group.count)  # round robin
         self.mine = [self.items[i] for i in self.group.items(self.assignment)]
         self.runs: dict[int, ItemRun] = {}
+        self._ra: dict[tuple[int, float], tuple[float, float]] = {}
         self.blocks = max(1, round(scene.life.cycles / scene.life.block))
 
     def assign(self, costs: Sequence[float]) -> None:
@@ -201,6 +203,19 @@ class Study:
 
     def item_lambda(self, item: WorkItem) -> float:
         return self.base.conditions[item.position - 1].Lambda / item.scale
+
+    def item_lambda_gf(self, item: WorkItem) -> float:
+        """ISO/TS 6336-22 Method B style λ_GF = h_c / ½(R_a1 + R_a2) of the item (MODEL.md
+        §6), with the R_a of the item's own initial surfaces (its patch and roughness scale)."""
+        from micropit_hpc.film import iso_lambda_gf
+
+        key = (item.patch, item.scale)
+        if key not in self._ra:
+            grid, _ = self.window()
+            self._ra[key] = tuple(body_surface(self.scene, i, grid, item.patch).ra * item.scale
+                                  for i in (1, 2))
+        hc = self.base.conditions[item.position - 1].hc
+        return float(iso_lambda_gf(hc, *self._ra[key]))
 
     def gather_maps(self) -> dict[int, dict[str, np.ndarray]]:
         """The final maps of every item on world rank 0 (None elsewhere)."""

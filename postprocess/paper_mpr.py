@@ -31,6 +31,11 @@ def _ap(rows, **match) -> float | None:
     return None
 
 
+def _r(values, digits: int = 4) -> str:
+    """A list of A_p (or Λ) values for a verdict line."""
+    return "[" + ", ".join("—" if v is None else f"{v:.{digits}g}" for v in values) + "]"
+
+
 def _write(path: Path, header, table) -> None:
     with open(path, "w", newline="") as fh:
         w = csv.writer(fh)
@@ -41,7 +46,8 @@ def _write(path: Path, header, table) -> None:
         print(",".join(str(x) for x in t))
 
 
-def mpr(run: Path) -> bool:
+def mpr(run: Path, say=print) -> bool:
+    """Trend 1 on the run of scenes/paper_mpr*.toml; ``say`` gets each verdict line."""
     rows = _rows(run)
     paper = list(csv.DictReader(open(ROOT / "validation" / "mpr_triple_disc_Ap.csv")))
     table, ours = [], {}
@@ -60,18 +66,19 @@ def mpr(run: Path) -> bool:
         a = [ours.get((s, n)) for s in (0.05, 0.15, 0.3)]
         holds = None not in a and a[0] < a[1] < a[2]
         ok &= holds
-        print(f"trend 1 at {n / 1e6:g} M: A_p(0.05) < A_p(0.15) < A_p(0.30): {a} -> "
-              f"{'holds' if holds else 'FAILS'}")
+        say(f"trend 1 at {n / 1e6:g} M: A_p(0.05) < A_p(0.15) < A_p(0.30): {_r(a)} -> "
+            f"{'holds' if holds else 'FAILS'}")
     for s in (0.05, 0.15, 0.3):
         a6, a10 = ours.get((s, 6e6)), ours.get((s, 10e6))
         holds = None not in (a6, a10) and a10 >= a6
         ok &= holds
-        print(f"trend 1: A_p(10 M) >= A_p(6 M) at |S| = {s}: {a6} -> {a10}: "
-              f"{'holds' if holds else 'FAILS'}")
+        say(f"trend 1: A_p(10 M) >= A_p(6 M) at |S| = {s}: {_r([a6])} -> {_r([a10])}: "
+            f"{'holds' if holds else 'FAILS'}")
     return ok
 
 
-def table9(run: Path) -> bool:
+def table9(run: Path, say=print) -> bool:
+    """Trend 7 on the run of scenes/paper_mpr_table9*.toml; ``say`` gets each verdict line."""
     rows = _rows(run)
     n_end = max(float(r["cycles"]) for r in rows)
     end = [r for r in rows if float(r["cycles"]) == n_end]
@@ -90,14 +97,14 @@ def table9(run: Path) -> bool:
     _write(run / "table9_comparison.csv",
            ["Lambda_paper", "Lambda_ours", "Ap_paper_klub0_pct", "Ap_ours_klub0_pct",
             "Ap_paper_klub1e-11_pct", "Ap_ours_klub1e-11_pct"], table)
-    print(f"(A_p at {n_end / 1e6:g} M cycles)")
     a = res[0.0]
     t0 = a[0] > a[1] > a[2]
-    print(f"trend 7, k_lub = 0: A_p rises as Λ falls: {a} -> {'holds' if t0 else 'FAILS'}")
+    say(f"trend 7 at {n_end / 1e6:g} M, k_lub = 0: A_p rises as Λ falls (Λ = "
+        f"{_r(lams, 3)}): {_r(a)} -> {'holds' if t0 else 'FAILS'}")
     b = res[1e-11]
     t1 = None not in b and b[1] > b[0] and b[1] > b[2]
-    print(f"trend 7, k_lub = 1e-11 s: A_p rises then falls as Λ falls (largest at the middle "
-          f"Λ): {b} -> {'holds' if t1 else 'FAILS'}")
+    say(f"trend 7 at {n_end / 1e6:g} M, k_lub = 1e-11 s: A_p rises then falls as Λ falls "
+        f"(largest at the middle Λ): {_r(b)} -> {'holds' if t1 else 'FAILS'}")
     return t0 and t1
 
 

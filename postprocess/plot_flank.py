@@ -1,6 +1,7 @@
 """A flank study at a glance, like the paper's Fig. 8: A_p of the driver (body 1) and the driven
 gear (body 2) at the end of the life against the roll angle of the driver, one line per wear
-coefficient, with the maximum Hertz pressure p0 and the slide-roll ratio S on a second axis.
+coefficient, with the maximum Hertz pressure p0, the slide-roll ratio S, Λ and the ISO/TS
+6336-22 Method B style λ_GF on a second axis.
 Where a position has several roughness patches (or scales), the mark is their mean and the bar
 their range. Also writes the table of the plot (flank.csv) and prints it.
 
@@ -25,8 +26,9 @@ import numpy as np
 
 
 def flank_table(run: Path) -> list[dict]:
-    """One row per (position, k_lub): roll angle, S, p0, Λ, A_p of each body (mean, min, max
-    over patches and roughness scales) at the last block."""
+    """One row per (position, k_lub): roll angle, S, p0, Λ, λ_GF (mean over patches), the
+    pair zone, A_p of each body (mean, min, max over patches and roughness scales) at the
+    last block."""
     with h5py.File(run / "results.h5", "r") as f:
         it = {k: f[f"items/{k}"][()] for k in f["items"]}
         if "roll_angle" not in it or np.all(np.isnan(it["roll_angle"])):
@@ -44,7 +46,12 @@ def flank_table(run: Path) -> list[dict]:
         rows.append({
             "position": pos, "roll_angle_deg": math.degrees(float(it["roll_angle"][k0])),
             "S": float(it["S"][k0]), "p0_GPa": float(it["p0"][k0]) / 1e9,
-            "Lambda": float(it["Lambda"][k0]), "k_lub_s": klub, "samples": len(ks),
+            "Lambda": float(it["Lambda"][k0]),
+            "lambda_GF": float(np.mean([it["lambda_GF"][k] for k in ks]))
+            if "lambda_GF" in it else math.nan,
+            "region": ("single" if it["single_pair"][k0] else "double")
+            if "single_pair" in it else "",
+            "k_lub_s": klub, "samples": len(ks),
             "cycles_M": float(cycles[int(it["id"][k0])]) / 1e6,
             "Ap1_pct": float(ap[:, 0].mean()), "Ap1_min": float(ap[:, 0].min()),
             "Ap1_max": float(ap[:, 0].max()), "Ap2_pct": float(ap[:, 1].mean()),
@@ -72,7 +79,9 @@ def plot(rows: list[dict], out: Path, title: str) -> None:
         xs = [r["roll_angle_deg"] for r in rows]
         tw.plot(xs, [r["p0_GPa"] for r in rows], "k--", lw=1, label="p0 [GPa]")
         tw.plot(xs, [r["S"] for r in rows], "k:", lw=1, label="S")
-        tw.set_ylabel("p0 [GPa], S")
+        tw.plot(xs, [r["Lambda"] for r in rows], "c-.", lw=1, label="Λ")
+        tw.plot(xs, [r["lambda_GF"] for r in rows], "m-.", lw=1, label="λ_GF (ISO/TS 6336-22 B)")
+        tw.set_ylabel("p0 [GPa], S, Λ, λ_GF")
         if body == 1:
             h1, l1 = ax.get_legend_handles_labels()
             h2, l2 = tw.get_legend_handles_labels()
@@ -102,11 +111,12 @@ def main() -> int:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    print(f"{'pos':>3} {'roll°':>6} {'S':>7} {'p0 GPa':>6} {'Λ':>5} {'k_lub s':>8} "
+    print(f"{'pos':>3} {'roll°':>6} {'S':>7} {'p0 GPa':>6} {'Λ':>5} {'λ_GF':>5} {'k_lub s':>8} "
           f"{'A_p1 %':>7} {'A_p2 %':>7}")
     for r in rows:
         print(f"{r['position']:>3} {r['roll_angle_deg']:6.2f} {r['S']:7.3f} {r['p0_GPa']:6.3f} "
-              f"{r['Lambda']:5.3f} {r['k_lub_s']:8.2g} {r['Ap1_pct']:7.2f} {r['Ap2_pct']:7.2f}")
+              f"{r['Lambda']:5.3f} {r['lambda_GF']:5.3f} {r['k_lub_s']:8.2g} "
+              f"{r['Ap1_pct']:7.2f} {r['Ap2_pct']:7.2f}")
     print(f"wrote {out} and {table}")
     return 0
 

@@ -197,3 +197,23 @@ def test_evenly_spaced_positions_are_symmetric_about_the_pitch_point():
     np.testing.assert_allclose(np.diff(rho), (mesh.E - mesh.A) / 11, rtol=1e-12)
     assert rho[5] == pytest.approx(mesh.C, rel=1e-12)
     assert rho[0] - mesh.A == pytest.approx((mesh.E - mesh.A) / 22)
+
+
+def test_imposed_slide_roll_keeps_the_sign_the_entrainment_the_load_and_the_film():
+    """gear.slide_roll_imposed (the paper's Table 5): |S| = 0.044 everywhere with the mesh's
+    sign, 0 at the pitch point (Table 3's position 6 has S = −0.0003 from rounding)."""
+    path = SCENES / "paper_gear_z23.toml"
+    doc = tomllib.loads(path.read_text())
+    plain = contact_study(scene_from_dict(doc, source=str(path)))
+    doc["gear"]["slide_roll_imposed"] = 0.044
+    fixed = contact_study(scene_from_dict(doc, source=str(path)))
+    table5 = {int(r["position"]): float(r["S_imposed"])
+              for r in read_table("table5_constant_SRR_z23.csv")}
+    for a, b in zip(plain.conditions, fixed.conditions, strict=True):
+        expected = 0.0 if abs(a.S) < 1e-3 else math.copysign(0.044, a.S)
+        assert b.S == pytest.approx(expected, abs=1e-12)
+        if a.position in table5:
+            assert b.S == pytest.approx(table5[a.position], abs=1e-12)
+        assert b.u_mean == pytest.approx(a.u_mean, rel=1e-12)
+        assert (b.p0, b.hc, b.load) == (a.p0, a.hc, a.load)
+        assert b.u1 - b.u2 == pytest.approx(b.S * b.u_mean, rel=1e-12, abs=1e-15)

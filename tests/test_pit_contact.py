@@ -74,21 +74,27 @@ def test_a_mostly_pitted_window_still_carries_the_load(cycle):
             cycle.set_surfaces(cycle.surfaces)
 
 
-def test_a_pitted_column_never_stands_above_the_worn_surface_around_it():
-    """Unloaded pits: a pitted column no longer wears, so its pre-pit height is capped at the
-    mean of the intact columns; otherwise it would stand up as a spike in the contact."""
+def test_a_pitted_column_wears_down_with_the_surface_around_it():
+    """Unloaded pits: a pitted column no longer wears, so the contact sees it at its pre-pit
+    height lowered by the wear of the intact columns around it; otherwise it would stand up as
+    a spike once they have worn. Without wear it is the pre-pit surface exactly."""
     from micropit_hpc.life import BodyState, _around_pits
     rng = np.random.default_rng(4)
-    h0 = rng.normal(0.0, 0.2e-6, (16, 16))
-    pitted = np.zeros((16, 16), bool)
-    pitted[3, 4] = pitted[9, 9] = True
-    h0[3, 4] = 0.5e-6                     # a high point that pitted early ...
+    h0 = rng.normal(0.0, 0.2e-6, (32, 32))
+    pitted = np.zeros((32, 32), bool)
+    pitted[8, 4] = pitted[24, 9] = pitted[24, 10] = True
+    h0[8, 4] = 0.5e-6                     # a high point that pitted early ...
     depth = np.where(pitted, 2e-6, 0.0)
-    wear = np.where(pitted, 0.0, 1e-6)    # ... then the intact surface wore a micron away
-    bs = BodyState(heights=h0 - wear - depth, damage=np.zeros((2, 16, 16)), pitted=pitted,
+    unworn = BodyState(heights=h0 - depth, damage=np.zeros((2, 32, 32)), pitted=pitted,
+                       wear=np.zeros((32, 32)), pit_depth=depth, rq0=0.2e-6)
+    np.testing.assert_allclose(_around_pits(unworn), h0, rtol=0, atol=1e-18)
+    # ... then the intact surface wore away, a micron on one half and 0.2 µm on the other
+    wear = np.where(pitted, 0.0, np.where(np.arange(32)[:, None] < 16, 1e-6, 0.2e-6))
+    bs = BodyState(heights=h0 - wear - depth, damage=np.zeros((2, 32, 32)), pitted=pitted,
                    wear=wear, pit_depth=depth, rq0=0.2e-6)
     top = _around_pits(bs)
-    intact_mean = bs.heights[~pitted].mean()
-    assert top[3, 4] == pytest.approx(intact_mean) and top[3, 4] < h0[3, 4] - 1e-6
     np.testing.assert_array_equal(top[~pitted], bs.heights[~pitted])
-    assert (top[pitted] <= intact_mean).all()
+    # each pitted column stands above (or below) its worn surroundings as it stood before
+    # (8 cells from the step in wear: the 2-cell Gaussian reaches across it by e^-8)
+    for i, j, w in ((8, 4, 1e-6), (24, 9, 0.2e-6), (24, 10, 0.2e-6)):
+        assert top[i, j] == pytest.approx(h0[i, j] - w, abs=1e-9)

@@ -206,6 +206,22 @@ def test_peak_spacing_of_a_cosine_is_its_wavelength(nx, periods):
     assert t.peak_spacing_x() == pytest.approx(lam, rel=1e-12)
 
 
+def test_grid_scale_texture_is_left_out_of_the_peak_spacing_above_the_cutoff():
+    """A 3-cell ripple of a tenth of the amplitude (the texture wear leaves) makes m4 count it
+    as peaks: λ_c falls from 24 to 4.7 cells; with wavelengths under 4 cells left out, λ_c is
+    the asperities' again, exactly."""
+    n, dx = 96, 0.5 * UM
+    x, y = coords(n, 8, dx=dx)
+    lam = 24 * dx
+    waves = 0.3 * UM * np.cos(2 * np.pi * x / lam) + 0 * y
+    t = Topography(waves + 0.03 * UM * np.cos(2 * np.pi * x / (3 * dx)), dx, dx)
+    assert t.peak_spacing_x() == pytest.approx(lam * math.sqrt(1.64 / 41.96), rel=1e-12)
+    assert t.peak_spacing_x(4 * dx) == pytest.approx(lam, rel=1e-12)
+    assert t.peak_spacing_x(3 * dx) == t.peak_spacing_x()   # a 3-cell cut keeps the ripple
+    plain = Topography(waves, dx, dx)
+    assert plain.peak_spacing_x(4 * dx) == plain.peak_spacing_x()
+
+
 @pytest.mark.parametrize("n", [16, 63])
 def test_profiles_constant_along_x_have_no_peaks(n):
     _, y = coords(n, n)

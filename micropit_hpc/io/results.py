@@ -64,6 +64,10 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
             tab["p0"] = np.array([c.p0 for c in conds])
             tab["p0"].attrs["unit"] = "Pa"
             tab["Lambda"] = np.array([study.item_lambda(i) for i in items])
+            tab["lambda_GF"] = np.array([study.item_lambda_gf(i) for i in items])
+            tab["hc"] = np.array([c.hc for c in conds])
+            tab["hc"].attrs["unit"] = "m"
+            tab["single_pair"] = np.array([c.region == "single" for c in conds], dtype=np.uint8)
             tab["roll_angle"] = np.array([c.roll_angle for c in conds])   # NaN for a disc rig
             tab["roll_angle"].attrs["unit"] = "rad"
             tab["radial_position"] = np.array([c.radial_position for c in conds])

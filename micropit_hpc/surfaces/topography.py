@@ -110,6 +110,11 @@ class Topography:
         return float(self.heights.mean())
 
     @property
+    def ra(self) -> float:
+        """Arithmetic mean deviation R_a = mean |h − h̄| (ISO 4287 / ISO 25178 S_a)."""
+        return float(np.abs(self.heights - self.heights.mean()).mean())
+
+    @property
     def rq(self) -> float:
         """R_q = √⟨(z − ⟨z⟩)²⟩ over the map [m] (ISO 25178 S_q)."""
         return float(self.heights.std())
@@ -219,8 +224,9 @@ class Topography:
         return self._with(m + (self.heights - m) * factor, f"scaled to rq={rq:.6g} m")
 
     # ---- spectral moments (MODEL.md §4.4) ----------------------------------------------------
-    def spectral_moments(self) -> tuple[float, float, float]:
-        """(m0, m2, m4) of the x-profiles, averaged over y [m², 1, 1/m²].
+    def spectral_moments(self, min_wavelength: float = 0.0) -> tuple[float, float, float]:
+        """(m0, m2, m4) of the x-profiles, averaged over y [m², 1, 1/m²]; wavelengths along x
+        shorter than ``min_wavelength`` [m] left out.
 
         m_n = ⟨ Σ_{k_x ≠ 0} k_x^n |Ĥ_j(k_x)|² / n_x² ⟩_j for the 1-D DFT Ĥ_j of profile j
         (Nayak, ASME J. Lubr. Technol. 93 (1971) 398; Longuet-Higgins 1957): m0 is the profile
@@ -233,16 +239,20 @@ class Topography:
         power = (spec.real**2 + spec.imag**2) * g.rfft_weight / float(g.nx * g.ny) ** 2
         power[0, :] = 0.0
         kx2 = g.kx**2
+        if min_wavelength > 0.0:
+            power = np.where(kx2 > (2 * math.pi / min_wavelength) ** 2 * (1 + 1e-12), 0.0,
+                             power)
         return float(power.sum()), float((kx2 * power).sum()), float((kx2**2 * power).sum())
 
-    def peak_spacing_x(self) -> float:
-        """Mean peak spacing of the x-profiles λ_c = 2π √(m2/m4) [m] (MODEL.md §4.4; Nayak 1971).
+    def peak_spacing_x(self, min_wavelength: float = 0.0) -> float:
+        """Mean peak spacing of the x-profiles λ_c = 2π √(m2/m4) [m] (MODEL.md §4.4; Nayak 1971),
+        from the wavelengths of at least ``min_wavelength`` [m] (:meth:`spectral_moments`).
 
         A pure cosine of wavelength λ gives λ. Profiles that are constant along x have no peaks:
         the result is infinite (no micro-cycles). "Constant" is judged against the FFT's
         round-off: m0 ≤ 1e-26 ⟨z²⟩, i.e. profile deviations below 1e-13 of the heights.
         """
-        m0, m2, m4 = self.spectral_moments()
+        m0, m2, m4 = self.spectral_moments(min_wavelength)
         if m4 <= 0 or m0 <= 1e-26 * float(np.mean(self.heights**2)):
             return math.inf
         return 2 * math.pi * math.sqrt(m2 / m4)

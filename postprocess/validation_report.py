@@ -1,0 +1,366 @@
+"""The validation report: our numbers beside the paper's and one PASS/FAIL line for each trend of
+MODEL.md §7, from the runs of ``bash scripts/validate.sh``.
+
+    python postprocess/validation_report.py [--runs runs] [--out docs/validation]
+
+Reads RUNS/<scene>/ of the MPR scenes (paper_mpr, paper_mpr_table9 and their _beta30 variants)
+and of the gear scenes (paper_gear_z23, paper_gear_z23_table5, paper_gear_z23_table8,
+paper_gear_z18); writes OUT/README.md (the report), the figures (flank.png like the paper's
+Fig. 8, damage_maps.png like its Fig. 9, the MPR life plots) and the side-by-side tables
+(table4_ours_vs_paper.csv, table5_…, table8_…, mpr_…, table9_…). Missing runs are reported as
+missing and their trends as FAIL. Exit status 0 when every trend passes, 1 otherwise.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import datetime as dt
+import math
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import h5py
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+sys.path.insert(0, str(HERE))
+sys.path.insert(0, str(ROOT))
+
+import paper_mpr  # noqa: E402
+import plot_flank  # noqa: E402
+
+from micropit_hpc.trends import (  # noqa: E402
+    FlankPoint,
+    Verdict,
+    trend2,
+    trend3,
+    trend4,
+    trend5,
+    trend6,
+)
+
+VALIDATION = ROOT / "validation"
+GEAR_SCENES = ("paper_gear_z23", "paper_gear_z23_table5", "paper_gear_z23_table8",
+               "paper_gear_z18")
+MPR_SCENES = ("paper_mpr", "paper_mpr_beta30", "paper_mpr_table9", "paper_mpr_table9_beta30")
+K_LUB = (0.0, 1e-11, 5e-11)
+TREND_WORDS = {
+    1: "MPR rig, k_lub = 0: A_p rises with |S| at 6 M and 10 M; A_p(10 M) ≥ A_p(6 M)",
+    2: "gear, k_lub = 0: A_p = 0 at the pitch, rising through the single-pair zone, no further "
+       "rise in the double-pair zones",
+    3: "gear, k_lub = 1e-11 s: below k_lub = 0 away from the pitch, largest in the single-pair "
+       "zone next to the pitch, lower towards tip and root",
+    4: "gear, k_lub = 5e-11 s: the lowest A_p everywhere, flat along the flank",
+    5: "S fixed at ±0.044 (Table 5): single-pair zone above the double-pair zones",
+    6: "z = 18 vs z = 23 at 0.7 m below the tip (Table 8): more A_p on z = 18 without wear, "
+       "less with wear",
+    7: "Λ scaling (Table 9): without wear A_p rises as Λ falls; with k_lub = 1e-11 s it rises "
+       "and then falls",
+}
+
+
+def _read(name: str) -> list[dict]:
+    with open(VALIDATION / name, newline="") as fh:
+        return list(csv.DictReader(fh))
+
+
+def _write_csv(path: Path, rows: list[dict]) -> None:
+    with open(path, "w", newline="") as fh:
+        w = csv.DictWriter(fh, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+
+
+def _run_info(run: Path) -> dict:
+    with h5py.File(run / "results.h5", "r") as f:
+        a = f.attrs
+        return {"wall_s": float(a.get("wall_s", math.nan)), "ranks": int(a.get("ranks", 0)),
+                "status": str(a.get("status", "?")), "items": int(f["items/id"].shape[0])}
+
+
+def _points(rows: list[dict], k_lub: float, body: int) -> list[FlankPoint]:
+    return [FlankPoint(r["position"], r["S"], r["region"] == "single", r[f"Ap{body}_pct"])
+            for r in rows if abs(r["k_lub_s"] - k_lub) <= 1e-20]
+
+
+def _spread(r: dict, body: int) -> str:
+    lo, hi = r[f"Ap{body}_min"], r[f"Ap{body}_max"]
+    return f"{r[f'Ap{body}_pct']:.3g}" + (f" ({lo:.3g}–{hi:.3g})" if hi > lo else "")
+
+
+def _md_table(header: list[str], rows: list[list]) -> list[str]:
+    out = ["| " + " | ".join(header) + " |", "|" + "---|" * len(header)]
+    out += ["| " + " | ".join(str(c) for c in row) + " |" for row in rows]
+    return out
+
+
+def _roll_key(deg: float) -> float:
+    return round(deg, 1)
+
+
+def gear_flank(runs: Path, out: Path, md: list[str]) -> list[Verdict]:
+    """Table 4 and trends 2–4 from the paper_gear_z23 run; Fig. 8 and Fig. 9 style figures."""
+    run = runs / "paper_gear_z23"
+    if not (run / "results.h5").is_file():
+        md.append(f"*Missing: {run}/results.h5.*")
+        return [Verdict(t, False, "run missing") for t in (2, 3, 4)]
+    rows = plot_flank.flank_table(run)
+    cycles = max(r["cycles_M"] for r in rows)
+    plot_flank.plot(rows, out / "flank.png", f"paper_gear_z23: A_p after {cycles:g} M cycles "
+                    "(bars: range over roughness patches)")
+    damage_maps(run, out / "damage_maps.png")
+    paper = {_roll_key(float(p["roll_angle_deg"])): p for p in _read(
+        "table4_Ap_along_flank_z23.csv")}
+    side, table = [], []
+    for r in rows:
+        p = paper.get(_roll_key(r["roll_angle_deg"]))
+        k = {0.0: "0", 1e-11: "1e-11", 5e-11: "5e-11"}.get(r["k_lub_s"])
+        side.append({"position": r["position"], "roll_angle_deg": f"{r['roll_angle_deg']:.2f}",
+                     "S": f"{r['S']:.3f}", "p0_GPa": f"{r['p0_GPa']:.3f}",
+                     "Lambda": f"{r['Lambda']:.3f}", "lambda_GF": f"{r['lambda_GF']:.3f}",
+                     "k_lub_s": f"{r['k_lub_s']:g}",
+                     "Ap_driver_ours": f"{r['Ap1_pct']:.3g}",
+                     "Ap_driver_paper": p[f"Ap_pct_klub{k}_driver"] if p and k else "",
+                     "Ap_driven_ours": f"{r['Ap2_pct']:.3g}",
+                     "Ap_driven_paper": p[f"Ap_pct_klub{k}_driven"] if p and k else "",
+                     "Ap_driver_range": f"{r['Ap1_min']:.3g}-{r['Ap1_max']:.3g}",
+                     "Ap_driven_range": f"{r['Ap2_min']:.3g}-{r['Ap2_max']:.3g}",
+                     "patches": r["samples"]})
+    _write_csv(out / "table4_ours_vs_paper.csv", side)
+    md += ["", "![A_p along the flank](flank.png)", "",
+           "Driver / driven A_p [%] after the last block: ours (mean over patches, range in "
+           "brackets) against the paper's Table 4.", ""]
+    by_pos: dict[int, dict] = {}
+    for s in side:
+        by_pos.setdefault(s["position"], {}).update({s["k_lub_s"]: s, "row": s})
+    for pos, d in sorted(by_pos.items()):
+        row = d["row"]
+        line = [pos, row["roll_angle_deg"], row["S"], row["p0_GPa"], row["Lambda"],
+                row["lambda_GF"]]
+        for k in K_LUB:
+            s = d.get(f"{k:g}")
+            line.append("" if s is None else
+                        f"{s['Ap_driver_ours']} / {s['Ap_driven_ours']} "
+                        f"({s['Ap_driver_paper']} / {s['Ap_driven_paper']})")
+        table.append(line)
+    md += _md_table(["pos", "roll °", "S", "p0 GPa", "Λ", "λ_GF",
+                     "k_lub 0: ours (paper)", "1e-11 s: ours (paper)", "5e-11 s: ours (paper)"],
+                    table)
+    md += ["", "![damage-risk maps of the driver](damage_maps.png)", ""]
+    spread_lines = []
+    for r in rows:
+        if r["samples"] > 1 and r["position"] in (2, 4, 5, 8, 10):
+            spread_lines.append(f"position {r['position']}, k_lub {r['k_lub_s']:g} s: driver "
+                                f"{_spread(r, 1)}, driven {_spread(r, 2)}")
+    if spread_lines:
+        md += ["Roughness sampling (mean and range over the patches), a sample:", ""]
+        md += [f"* {s}" for s in spread_lines[:8]]
+    verdicts = []
+    for body in (1, 2):
+        k0, k1, k5 = (_points(rows, k, body) for k in K_LUB)
+        name = "driver" if body == 1 else "driven"
+        for v in (trend2(k0), trend3(k0, k1), trend4(k1, k5)):
+            verdicts.append(Verdict(v.trend, v.holds, f"{name}: {v.text}"))
+    return _merge(verdicts)
+
+
+def _merge(verdicts: list[Verdict]) -> list[Verdict]:
+    """One verdict per trend: passes when every part passes."""
+    out = []
+    for t in sorted({v.trend for v in verdicts}):
+        parts = [v for v in verdicts if v.trend == t]
+        out.append(Verdict(t, all(v.holds for v in parts), " | ".join(v.text for v in parts)))
+    return out
+
+
+def damage_maps(run: Path, path: Path) -> None:
+    """Damage risk (max over depth of D, pits black) of the driver at five positions and every
+    wear coefficient, patch 0, like the paper's Fig. 9."""
+    with h5py.File(run / "results.h5", "r") as f:
+        it = {k: f[f"items/{k}"][()] for k in f["items"]}
+        pos = sorted(set(int(p) for p in it["position"]))
+        show = [p for p in (2, 4, 6, 8, 10) if p in pos] or pos[:5]
+        ks = sorted(set(float(k) for k in it["k_lub"]))
+        fig, axes = plt.subplots(len(ks), len(show), figsize=(2.4 * len(show), 2.3 * len(ks)),
+                                 squeeze=False)
+        dx, dy = float(f["grid/dx"][()]), float(f["grid/dy"][()])
+        for i, k in enumerate(ks):
+            for j, p in enumerate(show):
+                ax = axes[i, j]
+                sel = np.flatnonzero((it["position"] == p) & (it["k_lub"] == k)
+                                     & (it["patch"] == 0))
+                ax.set_xticks([])
+                ax.set_yticks([])
+                if not sel.size:
+                    continue
+                m = f[f"maps/item_{int(it['id'][sel[0]]):05d}/body1"]
+                risk, pitted = m["damage_risk"][()], m["pitted"][()].astype(bool)
+                ext = (0, risk.shape[1] * dy * 1e6, 0, risk.shape[0] * dx * 1e6)
+                im = ax.imshow(np.clip(risk, 0, 1), origin="lower", extent=ext, cmap="viridis",
+                               vmin=0, vmax=1, aspect="auto")
+                ax.imshow(np.ma.masked_where(~pitted, pitted), origin="lower", extent=ext,
+                          cmap="gray_r", vmin=0, vmax=1, aspect="auto")
+                ax.set_title(f"pos {p}, S {float(it['S'][sel[0]]):+.2f}\nk_lub {k:g} s, A_p "
+                             f"{100 * pitted.mean():.0f} %", fontsize=7)
+        fig.colorbar(im, ax=axes, shrink=0.6, label="damage risk max_z D (pits black)")
+        fig.suptitle("Driver: damage risk after the last block (rolling direction up)")
+        fig.savefig(path, dpi=110)
+        plt.close(fig)
+
+
+def gear_table5(runs: Path, out: Path, md: list[str]) -> Verdict:
+    run = runs / "paper_gear_z23_table5"
+    if not (run / "results.h5").is_file():
+        md.append(f"*Missing: {run}/results.h5.*")
+        return Verdict(5, False, "run missing")
+    rows = plot_flank.flank_table(run)
+    paper = {_roll_key(float(p["roll_angle_deg_from_table3"])): p for p in _read(
+        "table5_constant_SRR_z23.csv")}
+    side = []
+    for r in rows:
+        p = paper.get(_roll_key(r["roll_angle_deg"]), {})
+        side.append({"roll_angle_deg": f"{r['roll_angle_deg']:.2f}", "S": f"{r['S']:.3f}",
+                     "p0_GPa": f"{r['p0_GPa']:.3f}", "region": r["region"],
+                     "Ap_driver_ours": f"{r['Ap1_pct']:.3g}",
+                     "Ap_driver_range": f"{r['Ap1_min']:.3g}-{r['Ap1_max']:.3g}",
+                     "Ap_driver_paper": p.get("Ap_pct_klub1e-11_driver", "")})
+    _write_csv(out / "table5_ours_vs_paper.csv", side)
+    header = ["roll °", "S", "p0 GPa", "zone", "A_p driver ours", "range", "paper"]
+    md += ["", *_md_table(header, [list(s.values()) for s in side])]
+    return trend5(_points(rows, 1e-11, 1))
+
+
+def gear_table8(runs: Path, out: Path, md: list[str]) -> Verdict:
+    res, side = {}, []
+    paper = {(int(r["z"]), r["nominal_location_below_tip"]): r
+             for r in _read("table8_Ap_z23_vs_z18.csv")}
+    for z, name in ((23, "paper_gear_z23_table8"), (18, "paper_gear_z18")):
+        run = runs / name
+        if not (run / "results.h5").is_file():
+            md.append(f"*Missing: {run}/results.h5.*")
+            return Verdict(6, False, "run missing")
+        rows = plot_flank.flank_table(run)
+        for r in rows:
+            where = "0.7m" if r["position"] == 1 else "0.25m"
+            p = paper[(z, where)]
+            k = "0" if r["k_lub_s"] == 0.0 else "1e-11"
+            side.append({"z": z, "location": where, "k_lub_s": f"{r['k_lub_s']:g}",
+                         "S": f"{r['S']:.3f}", "p0_GPa": f"{r['p0_GPa']:.3f}",
+                         "Ap_driver_ours": f"{r['Ap1_pct']:.3g}",
+                         "Ap_driver_range": f"{r['Ap1_min']:.3g}-{r['Ap1_max']:.3g}",
+                         "Ap_driver_paper": p[f"Ap_pct_klub{k}_driver"]})
+            if where == "0.7m":
+                res.setdefault(z, {})[r["k_lub_s"]] = r["Ap1_pct"]
+    _write_csv(out / "table8_ours_vs_paper.csv", side)
+    header = ["z", "below tip", "k_lub s", "S", "p0 GPa", "A_p driver ours", "range", "paper"]
+    md += ["", *_md_table(header, [list(s.values()) for s in side])]
+    return trend6(res.get(23, {}), res.get(18, {}))
+
+
+def mpr(runs: Path, out: Path, md: list[str]) -> list[Verdict]:
+    verdicts = []
+    for name, which, trend in (("paper_mpr", "mpr", 1), ("paper_mpr_beta30", "mpr", 1),
+                               ("paper_mpr_table9", "table9", 7),
+                               ("paper_mpr_table9_beta30", "table9", 7)):
+        run = runs / name
+        md += ["", f"**{name}**", ""]
+        if not (run / "summary.csv").is_file():
+            md.append(f"*Missing: {run}/summary.csv.*")
+            verdicts.append(Verdict(trend, False, f"{name}: run missing"))
+            continue
+        lines: list[str] = []
+        ok = getattr(paper_mpr, which)(run, say=lines.append)
+        table = run / ("mpr_comparison.csv" if which == "mpr" else "table9_comparison.csv")
+        shutil.copy(table, out / f"{name}_{table.name}")
+        with open(table, newline="") as fh:
+            rows = list(csv.reader(fh))
+        md += _md_table(rows[0], rows[1:]) + [""] + [f"* {s}" for s in lines]
+        if (run / "life.png").is_file():
+            shutil.copy(run / "life.png", out / f"{name}_life.png")
+            md += ["", f"![{name}]({name}_life.png)"]
+        verdicts.append(Verdict(trend, ok, f"{name}: " + "; ".join(lines)))
+    return verdicts
+
+
+def _commit() -> str:
+    try:
+        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, text=True,
+                              capture_output=True, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
+                               cwd=ROOT, text=True, capture_output=True).stdout.strip()
+        return head + (" (with uncommitted changes)" if dirty else "")
+    except (OSError, subprocess.CalledProcessError):
+        return "unknown"
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--runs", type=Path, default=ROOT / "runs")
+    ap.add_argument("--out", type=Path, default=ROOT / "docs" / "validation")
+    a = ap.parse_args()
+    a.out.mkdir(parents=True, exist_ok=True)
+    gear_md: list[str] = []
+    t5_md: list[str] = []
+    t8_md: list[str] = []
+    mpr_md: list[str] = []
+    verdicts = mpr(a.runs, a.out, mpr_md)
+    verdicts += gear_flank(a.runs, a.out, gear_md)
+    verdicts.append(gear_table5(a.runs, a.out, t5_md))
+    verdicts.append(gear_table8(a.runs, a.out, t8_md))
+    # one line per trend: the default scenes decide; the _beta30 variants are a sensitivity
+    primary = {}
+    for v in verdicts:
+        if v.trend in (1, 7) and "beta30" in v.text.split(":")[0]:
+            continue
+        primary.setdefault(v.trend, v)
+    runs_info = []
+    total = 0.0
+    for name in MPR_SCENES + GEAR_SCENES:
+        run = a.runs / name
+        if (run / "results.h5").is_file():
+            info = _run_info(run)
+            total += info["wall_s"]
+            runs_info.append([name, info["items"], info["ranks"], f"{info['wall_s']:.0f}",
+                              info["status"]])
+        else:
+            runs_info.append([name, "", "", "", "missing"])
+    md = ["# Validation report", "",
+          f"Written by `bash scripts/validate.sh` (`postprocess/validation_report.py`) on "
+          f"{dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} UTC at commit {_commit()}. The paper: "
+          "Morales-Espejel, Rycerz & Kadiric, Wear 398–399 (2018); its tables are in "
+          "`validation/`. The absolute A_p depends on the roughness patch, which is not public "
+          "(the paper says so itself), so MODEL.md §7 sets trends; the findings behind each "
+          "FAIL, and which stage causes it, are in [findings.md](findings.md).", "",
+          "## Trends (MODEL.md §7)", ""]
+    for t in range(1, 8):
+        v = primary.get(t, Verdict(t, False, "not evaluated"))
+        md.append(f"* **trend {t}: {'PASS' if v.holds else 'FAIL'}** — {TREND_WORDS[t]}.  ")
+        md.append(f"  {v.text}")
+    extra = [v for v in verdicts if v.trend in (1, 7) and "beta30" in v.text.split(":")[0]]
+    if extra:
+        md += ["", "Sensitivity to the unknown correlation length along rolling (the `_beta30` "
+               "scenes, β_x = 30 µm instead of 15 µm; not a fit):", ""]
+        md += [f"* trend {v.trend}: {'PASS' if v.holds else 'FAIL'} — {v.text}" for v in extra]
+    md += ["", "## Runs", ""]
+    md += _md_table(["scene", "items", "ranks", "wall s", "status"], runs_info)
+    md += ["", f"Total wall time of the runs: {total / 60:.1f} min.", "",
+           "## Gear flank, z = 23 (Table 4, Fig. 8, Fig. 9)", "", *gear_md]
+    md += ["", "## S fixed at ±0.044 (Table 5)", *t5_md]
+    md += ["", "## z = 18 against z = 23 (Table 8)", *t8_md]
+    md += ["", "## MPR triple-disc rig (paper §3.1, Fig. 5) and Λ scaling (Table 9)", *mpr_md]
+    (a.out / "README.md").write_text("\n".join(md) + "\n")
+    print("\n".join(md[:20]))
+    print(f"wrote {a.out / 'README.md'}")
+    return 0 if all(v.holds for v in primary.values()) and len(primary) == 7 else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,28 @@
+#!/usr/bin/env bash
+# The validation of MODEL.md §7 against the paper, on NP ranks (default 2): the MPR rig and its
+# Λ scaling (scripts/validate-mpr.sh: scenes/paper_mpr*.toml), then the gear studies
+# (scenes/paper_gear_z23.toml: Table 4; paper_gear_z23_table5.toml: Table 5;
+# paper_gear_z23_table8.toml and paper_gear_z18.toml: Table 8), then the report
+# docs/validation/README.md with the figures, our numbers beside the paper's and one PASS/FAIL
+# line per trend (postprocess/validation_report.py). Runs go to runs/<scene>/.
+# About 60 minutes on 2 cores. GEARS_ONLY=1 skips the MPR runs (their last results are reused).
+# Exit status 1 if a trend fails (the report is written either way).
+set -euo pipefail
+root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+cd "$root"
+py=$(bash scripts/setup.sh)
+source scripts/mpi-env.sh
+np=${NP:-2}
+t0=$(date +%s)
+if [ -z "${GEARS_ONLY:-}" ]; then
+    bash scripts/validate-mpr.sh || true
+fi
+for name in paper_gear_z23 paper_gear_z23_table5 paper_gear_z23_table8 paper_gear_z18; do
+    echo "== micropit run scenes/$name.toml on $np ranks"
+    mpirun -n "$np" "$py" -m micropit_hpc run "scenes/$name.toml" --out "runs/$name"
+    "$py" postprocess/plot_flank.py "runs/$name"
+done
+status=0
+"$py" postprocess/validation_report.py --runs runs --out docs/validation || status=1
+echo "validation: $(( ($(date +%s) - t0) / 60 )) min on $np ranks; report docs/validation/README.md"
+exit $status
