@@ -114,11 +114,18 @@ def _film(scene: Scene, E_prime: float, R, Ry, load, u_mean, S):
 
 
 def gear_positions(scene: Scene, mesh: GearMesh) -> np.ndarray:
-    """ρ1 of every position of a gear scene."""
+    """ρ1 of every position of a gear scene; those within ``gear.pitch_snap_deg`` of roll angle
+    from the pitch point C are put at C (S = 0)."""
     pos = scene.positions
     if pos.kind == "count":
-        return mesh.evenly_spaced(pos.count)
-    return np.array([mesh.locate(pos.kind, v) for v in pos.values])
+        rho1 = mesh.evenly_spaced(pos.count)
+    else:
+        rho1 = np.array([mesh.locate(pos.kind, v) for v in pos.values])
+    snap = scene.gear.pitch_snap               # the paper's "pitch point" printed as 27.77°
+    if snap > 0.0:
+        near = np.abs(mesh.roll_angle(rho1) - mesh.roll_angle(mesh.C)) <= snap
+        rho1 = np.where(near, mesh.C, rho1)
+    return rho1
 
 
 #: |S| below which ``gear.slide_roll_imposed`` takes a position for the pitch point (S = 0).

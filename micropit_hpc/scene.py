@@ -83,6 +83,13 @@ gear 2 is the wheel (body 2). Give either `[gear]` with `[positions]`, or `[disc
         "the load and the film are kept, u1 = ū(1 + S/2), u2 = ū(1 − S/2). The paper's "
         "Table 5 (S = ±0.044) separates the effect of the pressure from that of the "
         "sliding. Default: the kinematic S of the mesh.", default=None, lo=0, hi=2, hi_open=True),
+    Key("pitch_snap_deg", "pitch_snap", "float", "Positions whose roll angle of gear 1 lies "
+        "within this of the pitch point C are evaluated at C exactly (S = 0). The paper's "
+        "Table 3 prints roll angles to 0.01° and calls its position 6 (27.77°) the pitch "
+        "point, where the exact C is 27.774°: S = −0.0003 there, and since the asperity "
+        "stresses exceed the S–N line's one-cycle strength that alone pits 11 % of the "
+        "flank (docs/validation/findings.md). Default 0: positions as given.", "deg", DEG,
+        default=0.0, lo=0, hi=1),
 ), children=("pinion", "wheel"))
 
 
@@ -479,6 +486,7 @@ class GearSpec:
     load_sharing: str
     accuracy_grade: int
     slide_roll_imposed: float | None = None
+    pitch_snap: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -783,7 +791,7 @@ def _read_gear(table: Mapping[str, Any], source: str) -> tuple[GearSpec, GearMes
                          ) from None
     spec = GearSpec(geometry=geo, torque=g["torque"], speed=g["speed"],
                     load_sharing=g["load_sharing"], accuracy_grade=g["accuracy_grade"],
-                    slide_roll_imposed=g["slide_roll_imposed"])
+                    slide_roll_imposed=g["slide_roll_imposed"], pitch_snap=g["pitch_snap"])
     return spec, mesh
 
 

@@ -28,6 +28,7 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.colors import ListedColormap
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
@@ -182,7 +183,7 @@ def _merge(verdicts: list[Verdict]) -> list[Verdict]:
 
 
 def damage_maps(run: Path, path: Path) -> None:
-    """Damage risk (max over depth of D, pits black) of the driver at five positions and every
+    """Damage risk (max over depth of D, pits red) of the driver at five positions and every
     wear coefficient, patch 0, like the paper's Fig. 9."""
     with h5py.File(run / "results.h5", "r") as f:
         it = {k: f[f"items/{k}"][()] for k in f["items"]}
@@ -207,10 +208,10 @@ def damage_maps(run: Path, path: Path) -> None:
                 im = ax.imshow(np.clip(risk, 0, 1), origin="lower", extent=ext, cmap="viridis",
                                vmin=0, vmax=1, aspect="auto")
                 ax.imshow(np.ma.masked_where(~pitted, pitted), origin="lower", extent=ext,
-                          cmap="gray_r", vmin=0, vmax=1, aspect="auto")
+                          cmap=ListedColormap(["red"]), aspect="auto")
                 ax.set_title(f"pos {p}, S {float(it['S'][sel[0]]):+.2f}\nk_lub {k:g} s, A_p "
                              f"{100 * pitted.mean():.0f} %", fontsize=7)
-        fig.colorbar(im, ax=axes, shrink=0.6, label="damage risk max_z D (pits black)")
+        fig.colorbar(im, ax=axes, shrink=0.6, label="damage risk max_z D (pits red)")
         fig.suptitle("Driver: damage risk after the last block (rolling direction up)")
         fig.savefig(path, dpi=110)
         plt.close(fig)

@@ -65,3 +65,16 @@ def test_lambda_uses_the_composite_roughness():
     assert film.composite_rq(3e-6, 4e-6) == pytest.approx(5e-6)
     assert float(film.specific_film_thickness(1e-6, 5e-6)) == pytest.approx(0.2)
     assert np.isinf(film.specific_film_thickness(1e-6, 0.0))
+
+
+def test_iso_lambda_gf_divides_by_the_mean_arithmetic_roughness():
+    """ISO/TS 6336-22 Method B: λ_GF = h / ½(R_a1 + R_a2); smooth flanks give infinity."""
+    assert film.iso_lambda_gf(0.6e-6, 0.4e-6, 0.8e-6) == pytest.approx(1.0)
+    assert np.all(np.isinf(film.iso_lambda_gf(np.array([1e-6, 2e-6]), 0.0, 0.0)))
+
+
+def test_ra_of_a_gaussian_field_is_sqrt_2_over_pi_of_rq():
+    from micropit_hpc.spectral import Grid
+    from micropit_hpc.surfaces import gaussian_surface
+    t = gaussian_surface(Grid(256, 256, 1e-3, 1e-3), 1e-6, 20e-6, 20e-6, 3)
+    assert t.ra == pytest.approx(math.sqrt(2 / math.pi) * t.rq, rel=0.02)

@@ -217,3 +217,19 @@ def test_imposed_slide_roll_keeps_the_sign_the_entrainment_the_load_and_the_film
         assert b.u_mean == pytest.approx(a.u_mean, rel=1e-12)
         assert (b.p0, b.hc, b.load) == (a.p0, a.hc, a.load)
         assert b.u1 - b.u2 == pytest.approx(b.S * b.u_mean, rel=1e-12, abs=1e-15)
+
+
+def test_pitch_snap_puts_the_papers_pitch_position_at_the_pitch_point():
+    """gear.pitch_snap_deg: Table 3's position 6 (27.77°) is its pitch point; within 0.01° of
+    C it is evaluated at C (S = 0 exactly), and nothing else moves. Without it S = −0.0003."""
+    path = SCENES / "paper_gear_z23.toml"
+    doc = tomllib.loads(path.read_text())
+    snapped = contact_study(scene_from_dict(doc, source=str(path)))
+    doc["gear"]["pitch_snap_deg"] = 0.0
+    plain = contact_study(scene_from_dict(doc, source=str(path)))
+    for a, b in zip(plain.conditions, snapped.conditions, strict=True):
+        if a.position == 6:
+            assert abs(a.S) == pytest.approx(2.9e-4, rel=0.05)
+            assert b.S == 0.0 and b.rho1 == snapped.mesh.C
+        else:
+            assert (a.S, a.rho1, a.p0) == (b.S, b.rho1, b.p0)

@@ -2,6 +2,7 @@
 
 import csv
 import json
+import math
 from dataclasses import replace
 from pathlib import Path
 
@@ -60,6 +61,13 @@ def test_run_writes_summary_and_results(tmp_path):
         assert f.attrs["complete"] == 1
         lam_h5 = f["items/Lambda"][()]
         assert lam_h5[1] == pytest.approx(2 * lam_h5[0], rel=1e-12)
+        # λ_GF = h_c / ½(R_a1 + R_a2) of the item's own surfaces, so × 0.5 roughness ⇒ × 2;
+        # for these Gaussian surfaces (R_q 0.16 and 0.21 µm) R_a ≈ √(2/π) R_q
+        gf, hc = f["items/lambda_GF"][()], f["items/hc"][()]
+        assert gf[1] == pytest.approx(2 * gf[0], rel=1e-12)
+        ra = math.sqrt(2 / math.pi) * 0.5 * (0.16e-6 + 0.21e-6)
+        assert gf[0] == pytest.approx(hc[0] / ra, rel=0.1)
+        assert hc[0] > 0 and f["items/single_pair"][0] == 1
         ap = f["history/item_00002/Ap"][-1]
         pitted = f["maps/item_00002/body1/pitted"][()]
         assert ap[0] == pytest.approx(100 * pitted.mean())
