@@ -128,16 +128,13 @@ def gear_positions(scene: Scene, mesh: GearMesh) -> np.ndarray:
     return rho1
 
 
-#: |S| below which ``gear.slide_roll_imposed`` takes a position for the pitch point (S = 0).
-PITCH_SLIDE_ROLL = 1e-3
-
-
 def gear_conditions(scene: Scene, mesh: GearMesh, rho1) -> tuple[ContactConditions, ...]:
     """Conditions at points ρ1 of the path of contact of a gear scene (MODEL.md §2.1, §2.2, §2.4).
 
     w = X(ρ1) T1/(r_b1 b_w); R = ρ1 ρ2/(ρ1 + ρ2); u_i = ω_i ρ_i; line-contact Hertz; film from
     the scene's film model. With ``gear.slide_roll_imposed`` the speeds become ū(1 ± S/2) with
-    |S| imposed and the mesh's sign (the paper's Table 5).
+    |S| imposed and the mesh's sign, 0 at the pitch point (the paper's Table 5; its printed
+    pitch position is put at the pitch point by ``gear.pitch_snap_deg``).
     """
     gear = scene.gear
     geo = gear.geometry
@@ -151,9 +148,7 @@ def gear_conditions(scene: Scene, mesh: GearMesh, rho1) -> tuple[ContactConditio
     u_mean = 0.5 * (u1 + u2)
     S = (u1 - u2) / u_mean
     if gear.slide_roll_imposed is not None:       # the paper's Table 5: |S| fixed, ū kept
-        # |S| < 1e-3 is the pitch point: Table 3's position 6 has S = −0.0003 from the
-        # rounding of its roll angle, and the paper's Table 5 puts S = 0 there
-        S = np.where(np.abs(S) < PITCH_SLIDE_ROLL, 0.0, np.sign(S) * gear.slide_roll_imposed)
+        S = np.sign(S) * gear.slide_roll_imposed    # 0 stays 0 at the pitch point
         u1, u2 = u_mean * (1.0 + 0.5 * S), u_mean * (1.0 - 0.5 * S)
     hc, phi = _film(scene, E_prime, R, math.inf, w, u_mean, S)
     Lam = filmlib.specific_film_thickness(hc, lambda_roughness(scene))

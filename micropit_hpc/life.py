@@ -27,6 +27,7 @@ import time
 from dataclasses import dataclass, field
 
 import numpy as np
+from scipy.ndimage import gaussian_filter
 
 from micropit_hpc.conditions import ContactConditions
 from micropit_hpc.cycle import PositionCycle
@@ -206,8 +207,6 @@ def _around_pits(bs: BodyState) -> np.ndarray:
     h = bs.heights + bs.pit_depth
     if not bs.pitted.any() or bs.pitted.all() or not bs.wear.any():
         return h
-    from scipy.ndimage import gaussian_filter
-
     intact = (~bs.pitted).astype(float)
     weight = gaussian_filter(intact, PIT_FILL_CELLS, mode="wrap")
     local = gaussian_filter(bs.wear * intact, PIT_FILL_CELLS, mode="wrap")

@@ -79,8 +79,9 @@ gear 2 is the wheel (body 2). Give either `[gear]` with `[positions]`, or `[disc
         "`load_sharing = \"iso_unmodified\"`; grades finer than 7 are taken as 7 (below it the "
         "ISO ramps would lose load).", default=7, lo=0, hi=12),
     Key("slide_roll_imposed", "slide_roll_imposed", "float", "|S| imposed at every position, "
-        "with the sign of the mesh's own S (0 at the pitch point, taken as |S| < 0.001); ū, "
-        "the load and the film are kept, u1 = ū(1 + S/2), u2 = ū(1 − S/2). The paper's "
+        "with the sign of the mesh's own S (0 at the pitch point; see `pitch_snap_deg` for a "
+        "pitch point given by a rounded roll angle); ū, the load and the film are kept, "
+        "u1 = ū(1 + S/2), u2 = ū(1 − S/2). The paper's "
         "Table 5 (S = ±0.044) separates the effect of the pressure from that of the "
         "sliding. Default: the kinematic S of the mesh.", default=None, lo=0, hi=2, hi_open=True),
     Key("pitch_snap_deg", "pitch_snap", "float", "Positions whose roll angle of gear 1 lies "

@@ -21,6 +21,7 @@ import numpy as np
 from micropit_hpc.conditions import ContactStudy, contact_study
 from micropit_hpc.cycle import PositionCycle, body_surface, reference_half_width, window_grid
 from micropit_hpc.errors import MicropitError, SceneError
+from micropit_hpc.film import iso_lambda_gf
 from micropit_hpc.life import (
     BlockRecord,
     LifeParams,
@@ -207,8 +208,6 @@ class Study:
     def item_lambda_gf(self, item: WorkItem) -> float:
         """ISO/TS 6336-22 Method B style λ_GF = h_c / ½(R_a1 + R_a2) of the item (MODEL.md
         §6), with the R_a of the item's own initial surfaces (its patch and roughness scale)."""
-        from micropit_hpc.film import iso_lambda_gf
-
         key = (item.patch, item.scale)
         if key not in self._ra:
             grid, _ = self.window()

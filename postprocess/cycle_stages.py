@@ -19,6 +19,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
+from micropit_hpc.conditions import contact_study
 from micropit_hpc.life import evaluate_cycle
 from micropit_hpc.scene import load_scene
 from micropit_hpc.study import ItemRun, WorkItem
@@ -32,16 +33,15 @@ def main() -> int:
     ap.add_argument("--patch", type=int, default=0)
     a = ap.parse_args()
     scene = load_scene(a.scene)
-    from micropit_hpc.conditions import contact_study
-
-    n_pos = len(contact_study(scene).conditions)
+    study = contact_study(scene)
+    n_pos = len(study.conditions)
     tau_1 = scene.fatigue.B / math.sqrt(3.0)
     print(f"# {a.scene}: one load cycle on the initial surfaces (patch {a.patch}, k_lub "
           f"{a.k_lub:g} s); S–N one-cycle strength τ1 = B/√3 = {tau_1 / 1e6:.0f} MPa")
     print("position,S,p0_GPa,phi,solid_area,tau_dv_max_MPa,tau_dv_smooth_max_MPa,n_micro,"
           "fail_within_1_cycle_pct,fail_within_1M_pct")
     for pos in a.position or range(1, n_pos + 1):
-        run = ItemRun(scene, WorkItem(0, pos, a.k_lub, 1.0, a.patch))
+        run = ItemRun(scene, WorkItem(0, pos, a.k_lub, 1.0, a.patch), base=study)
         res = evaluate_cycle(run.cycle, run.state, run.params)
         c, b = run.cycle.cond, res.bodies[0]
         worst = b.damage_rate.max(axis=0)                  # per column, over depth

@@ -201,7 +201,7 @@ def test_evenly_spaced_positions_are_symmetric_about_the_pitch_point():
 
 def test_imposed_slide_roll_keeps_the_sign_the_entrainment_the_load_and_the_film():
     """gear.slide_roll_imposed (the paper's Table 5): |S| = 0.044 everywhere with the mesh's
-    sign, 0 at the pitch point (Table 3's position 6 has S = −0.0003 from rounding)."""
+    sign, 0 at the pitch point (Table 3's position 6, put there by gear.pitch_snap_deg)."""
     path = SCENES / "paper_gear_z23.toml"
     doc = tomllib.loads(path.read_text())
     plain = contact_study(scene_from_dict(doc, source=str(path)))
