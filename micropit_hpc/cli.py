@@ -142,8 +142,9 @@ def _cmd_run(args: argparse.Namespace) -> int:
                 why = ("for a stable wear update" if scene.life.wear_integration == "explicit"
                        else "to follow the running-in in finer steps (the relaxed update keeps "
                        "each step within the elastic relief of the contact spots)")
-                log(f"warning: item {iid}, block {k}: one sub-block wore {recs[-1].wear_step:.3g}"
-                    f" × R_q away somewhere (life.max_wear_fraction = {limit:g}); the split "
+                log(f"warning: item {iid}, block {k}: one sub-block's wear changed the surface "
+                    f"by {recs[-1].wear_step:.3g} × R_q somewhere (life.max_wear_fraction = "
+                    f"{limit:g}); the split "
                     f"stopped at life.max_splits = {scene.life.max_splits}. Raise max_splits "
                     f"(or lower life.block_M) {why} (docs/life.md)")
         ap = max((r[-1].Ap[0] for r in records.values() if r), default=0.0)

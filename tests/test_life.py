@@ -10,13 +10,17 @@ from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.life import (
     BodyCycle,
+    BodyState,
     CycleResult,
     LifeParams,
+    LifeState,
     apply_cycles,
     evaluate_cycle,
     initial_state,
     micro_cycles,
     run_block,
+    shape_change,
+    sub_block_cycles,
 )
 from micropit_hpc.pits import detach, layer_bottoms, shift_columns
 from micropit_hpc.scene import scene_from_dict
@@ -219,6 +223,54 @@ def test_a_block_records_the_largest_wear_step(tiny):
         rec = run_block(cycle, state, params)
         assert rec.wear_step > 0.0
         assert (rec.wear_step <= params.max_wear_fraction * (1 + 1e-9)) == within
+
+
+def _worn_pair(rate: np.ndarray, pitted: np.ndarray | None = None):
+    """A state and cycle result whose only action is the explicit wear ``rate`` per cycle on
+    both bodies (R_q 0.2 µm, no damage), for the split rule alone."""
+    shape = rate.shape
+    pitted = np.zeros(shape, bool) if pitted is None else pitted
+    bodies = tuple(BodyState(heights=np.zeros(shape), damage=np.zeros((3, *shape)),
+                             pitted=pitted.copy(), wear=np.zeros(shape),
+                             pit_depth=np.zeros(shape), rq0=0.2e-6) for _ in range(2))
+    zero = np.zeros(shape)
+    cycle = BodyCycle(damage_rate=np.zeros((3, *shape)), wear=WearRate(zero, rate, zero),
+                      tau_rough=np.zeros((3, *shape)), tau_smooth=np.zeros((3, 1, 1)),
+                      n_micro=0.0, lam_c=np.inf)
+    return (LifeState(bodies=bodies),
+            CycleResult(bodies=(cycle, cycle), phi=0.0, solid_fraction=0.0, steps=1, wall_s=0.0))
+
+
+def test_the_split_follows_the_shape_change_not_a_uniform_removal():
+    """A uniform removal of 50 R_q per block changes nothing the contact sees: one sub-block.
+    The same rate raised by 20 % on a quarter of the window is cut to the cycles in which that
+    quarter has sunk by max_wear_fraction × R_q against the mean."""
+    params = LifeParams(k_lub=1e-11, max_splits=10_000)
+    mean = 50 * 0.2e-6 / params.block
+    state, result = _worn_pair(np.full((8, 8), mean))
+    assert sub_block_cycles(state, result, params.block, params) == params.block
+    rate = np.full((8, 8), mean)
+    rate[:4, :4] *= 1.2
+    state, result = _worn_pair(rate)
+    n = sub_block_cycles(state, result, params.block, params)
+    change = shape_change(n * rate, np.ones(rate.shape, bool))
+    assert change == pytest.approx(params.max_wear_fraction * 0.2e-6, rel=1e-5)
+    # the bump stands 0.15 × mean above the window's mean rate (a quarter of it at 1.2 × mean)
+    assert n == pytest.approx(params.max_wear_fraction * 0.2e-6 / (0.15 * mean), rel=1e-5)
+
+
+def test_pitted_columns_are_left_out_of_the_shape_change():
+    """Pitted columns carry no load and so do not wear; they follow the wear around them in
+    the contact (life._around_pits), so their missing wear is no change of shape."""
+    rate = np.full((8, 8), 1e-12)
+    pitted = np.zeros(rate.shape, bool)
+    pitted[2:4, 5:7] = True
+    rate[pitted] = 0.0
+    assert shape_change(rate, ~pitted) == 0.0
+    assert shape_change(rate, np.ones(rate.shape, bool)) > 0.9e-12
+    params = LifeParams(k_lub=1e-11, max_splits=10_000)
+    state, result = _worn_pair(rate, pitted)
+    assert sub_block_cycles(state, result, params.block, params) == params.block
 
 
 # ---- wear integration over a sub-block (life.wear_integration) --------------------------------
