@@ -18,9 +18,10 @@ together and changes neither the contact nor the stresses, so it needs no split;
 the wear that differs from place to place is what runs the surface in, and its rate changes as
 it does. Measured on the Table 9 scene (β_x = 30 µm, Λ = 0.176, k_lub = 1e-11 s, 64²): with the
 split stopped at 4 sub-blocks per block the roller's A_p after 1 M cycles is 5.4 %, with 16 it
-is 3.8 %, with the limit honoured (25 sub-blocks) 2.9 %, and with half the limit 2.9 % again;
-the coarse steps also leave a texture that shortens λ_c and runs A_p away after a few M cycles
-(docs/life.md).
+is 3.8 %, with the limit honoured (25 sub-blocks) 2.9 %, and with half the limit 3.0 %; the
+coarse steps also leave a texture that shortens λ_c and runs A_p away after a few M cycles
+(docs/life.md, "Resolving the running-in").
+
 **Wear integration [choice]** (``wear_integration``, :mod:`micropit_hpc.wear`): the wear of a
 sub-block is ``relaxed`` (default: the stiff solid-contact part integrated as the linearised
 pressure relief it causes) or ``explicit`` (n Δh_i, MODEL.md §4.6 as written). The split's
