@@ -324,6 +324,9 @@ surfaces, with the adaptive split of a block.
     Key("max_damage_step", "max_damage_step", "float", "Split a block if it would raise the "
         "maximum damage of the intact material by more than this.", default=0.25, lo=0,
         hi=1e9, lo_open=True),
+    Key("max_pit_step", "max_pit_step", "float", "Split a block if it would newly pit more "
+        "than this share of the window's columns (resolves the cascade of pits: a pit passes "
+        "its load to its neighbours).", default=0.01, lo=0, hi=1, lo_open=True),
     Key("max_splits", "max_splits", "int", "At most this many sub-blocks per block (the "
         "smallest sub-block is ΔN/max_splits). With 4 the running-in of Table 9 at k_lub = 1e-11 s "
         "is not resolved (A_p 5.4 % after 1 M cycles against 2.9 % converged, docs/life.md).",
@@ -598,6 +601,7 @@ class LifeSpec:
     block: float = 1e6
     max_wear_fraction: float = 0.1
     max_damage_step: float = 0.25
+    max_pit_step: float = 0.01
     max_splits: int = 64
     pit_contact: str = "unloaded"
     wear_integration: str = "relaxed"

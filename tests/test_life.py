@@ -1,6 +1,7 @@
 """The life loop at one contact point: Miner, wear, pits, moving damage columns, adaptive
 blocks (MODEL.md §4.4–§5)."""
 
+import dataclasses
 import itertools
 
 import numpy as np
@@ -14,6 +15,7 @@ from micropit_hpc.life import (
     CycleResult,
     LifeParams,
     LifeState,
+    _new_pits,
     apply_cycles,
     evaluate_cycle,
     initial_state,
@@ -273,6 +275,31 @@ def test_pitted_columns_are_left_out_of_the_shape_change():
     params = LifeParams(k_lub=1e-11, max_splits=10_000)
     state, result = _worn_pair(rate, pitted)
     assert sub_block_cycles(state, result, params.block, params) == params.block
+
+
+def test_the_split_limits_the_share_of_newly_pitted_columns():
+    """The pit cascade is resolved in time: 100 columns whose surface layer fails one after
+    another, column k at (k + 1)/100 of the block, are split until a sub-block pits at most
+    max_pit_step of the intact columns; columns already pitted do not count. Without the pit
+    limit (and with the damage limit off) the whole block is one sub-block."""
+    block = 1e6
+    state, result = _worn_pair(np.zeros((10, 10)))
+    rate = np.zeros((3, 10, 10))
+    rate[0] = (100.0 / (block * np.arange(1, 101))).reshape(10, 10)
+    result = dataclasses.replace(result, bodies=tuple(
+        dataclasses.replace(b, damage_rate=rate) for b in result.bodies))
+    free = LifeParams(k_lub=0.0, block=block, max_splits=10_000, max_damage_step=1e9,
+                      max_pit_step=1.0)
+    assert sub_block_cycles(state, result, block, free) == block
+    limited = dataclasses.replace(free, max_pit_step=0.01)
+    # halving from ΔN: ΔN/64 pits column 0 only (1 %), ΔN/32 would pit three
+    assert sub_block_cycles(state, result, block, limited) == block / 64
+    assert _new_pits(state, result, block / 32) == pytest.approx(0.03)
+    for bs in state.bodies:
+        bs.pitted.reshape(-1)[:50] = True
+    assert _new_pits(state, result, block) == pytest.approx(0.5)
+    assert _new_pits(state, result, block / 2) == 0.0
+    assert sub_block_cycles(state, result, block, limited) == block / 2
 
 
 # ---- wear integration over a sub-block (life.wear_integration) --------------------------------
