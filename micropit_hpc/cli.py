@@ -132,7 +132,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         progress[0] = (Progress(blocks, "blocks", initial=start) if rank0
                        else NullProgress(blocks, "blocks"))
 
-    warned: set[int] = set()
+    warned: set[int] = set()           # items warned about the wear step
+    warned_pits: set[int] = set()      # items warned about the pit step
 
     def on_block(k: int, blocks: int, records: dict) -> None:
         limit = scene.life.max_wear_fraction
@@ -147,6 +148,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     f"{limit:g}); the split "
                     f"stopped at life.max_splits = {scene.life.max_splits}. Raise max_splits "
                     f"(or lower life.block_M) {why} (docs/life.md)")
+            if recs and recs[-1].pit_step > scene.life.max_pit_step * (1 + 1e-9) \
+                    and iid not in warned_pits:
+                warned_pits.add(iid)
+                log(f"warning: item {iid}, block {k}: one sub-block newly pitted "
+                    f"{100 * recs[-1].pit_step:.3g} % of the window (life.max_pit_step = "
+                    f"{scene.life.max_pit_step:g}); the split stopped at life.max_splits = "
+                    f"{scene.life.max_splits}. Raise max_splits (or lower life.block_M) to "
+                    f"follow the cascade of pits in finer steps (docs/life.md)")
         ap = max((r[-1].Ap[0] for r in records.values() if r), default=0.0)
         progress[0].update(k, f"{k * len(records)} item-blocks of {blocks * len(records)}, "
                               f"max A_p body 1 {ap:.3g} %")

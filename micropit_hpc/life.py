@@ -164,7 +164,8 @@ class BlockRecord:
     """The state at the end of a block (one value per body where a pair). ``wear_step``: the
     largest shape change one sub-block's wear made (:func:`shape_change`), over the body's
     initial R_q (the split aims at ≤ ``max_wear_fraction``; above it the split stopped at
-    ``max_splits``)."""
+    ``max_splits``). ``pit_step``: the largest share of the window's columns one sub-block
+    newly pitted on either body (the split aims at ≤ ``max_pit_step``)."""
 
     block: int
     cycles: float
@@ -178,6 +179,7 @@ class BlockRecord:
     Rq: tuple[float, float]
     n_micro: tuple[float, float]
     wear_step: float = 0.0
+    pit_step: float = 0.0
 
 
 def initial_state(cycle: PositionCycle) -> LifeState:
@@ -406,16 +408,18 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
     Collective over the cycle's group (every rank returns the same record)."""
     t0 = time.perf_counter()
     left = params.block if cycles is None else cycles
-    subs, phi_acc, n_done, wear_step = 0, 0.0, 0.0, 0.0
+    subs, phi_acc, n_done, wear_step, pit_step = 0, 0.0, 0.0, 0.0, 0.0
     result = None
     while left > 0:
         result = evaluate_cycle(cycle, state, params)
         n = sub_block_cycles(state, result, left, params, cycle.slab)
+        before = [bs.pitted.copy() for bs in state.bodies]
         with event("apply_cycles"):
             worn = apply_cycles(state, result, n, cycle.z, cycle.slab, params.wear_integration)
-        for bs, w in zip(state.bodies, worn, strict=True):
+        for bs, w, was in zip(state.bodies, worn, before, strict=True):
             if bs.rq0 > 0:
                 wear_step = max(wear_step, w / bs.rq0)
+            pit_step = max(pit_step, float((bs.pitted & ~was).mean()))
         phi_acc += n * result.phi
         n_done += n
         left -= n
@@ -429,7 +433,8 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
         wear_mean=(float(b[0].wear.mean()), float(b[1].wear.mean())),
         wear_max=(float(b[0].wear.max()), float(b[1].wear.max())),
         Rq=(b[0].rq, b[1].rq),
-        n_micro=(result.bodies[0].n_micro, result.bodies[1].n_micro), wear_step=wear_step)
+        n_micro=(result.bodies[0].n_micro, result.bodies[1].n_micro), wear_step=wear_step,
+        pit_step=pit_step)
     return rec
 
 

@@ -56,7 +56,8 @@ CHECKPOINT_DIR = "checkpoints"
 #: Columns of the ``records`` checkpoint field: BlockRecord's fields, pairs flattened.
 RECORD_FIELDS = ("block", "cycles", "sub_blocks", "phi", "wall_s", "Ap1", "Ap2",
                  "max_damage1", "max_damage2", "wear_mean1", "wear_mean2", "wear_max1",
-                 "wear_max2", "Rq1", "Rq2", "n_micro1", "n_micro2", "wear_step")
+                 "wear_max2", "Rq1", "Rq2", "n_micro1", "n_micro2", "wear_step",
+                 "pit_step")
 
 
 def record_row(rec: BlockRecord) -> np.ndarray:
@@ -73,7 +74,7 @@ def record_from_row(row: np.ndarray) -> BlockRecord:
     for f in fields(BlockRecord):
         if f.name in ("block", "sub_blocks"):
             vals[f.name], i = int(row[i]), i + 1
-        elif f.name in ("cycles", "phi", "wall_s", "wear_step"):
+        elif f.name in ("cycles", "phi", "wall_s", "wear_step", "pit_step"):
             vals[f.name], i = float(row[i]), i + 1
         else:
             vals[f.name], i = (float(row[i]), float(row[i + 1])), i + 2

@@ -277,6 +277,33 @@ def test_pitted_columns_are_left_out_of_the_shape_change():
     assert sub_block_cycles(state, result, params.block, params) == params.block
 
 
+def test_a_block_records_the_largest_pit_step(tiny, monkeypatch):
+    """pit_step = the largest share of the window one sub-block newly pitted: at most
+    max_pit_step when the split can honour it (so a block that pits the whole window takes
+    at least 1/max_pit_step sub-blocks), the whole window when max_splits = 1. The cycle's
+    rates are held fixed: the surface layer of column k fails at (k + ½)/N of the block."""
+    scene, study = tiny
+    cycle = PositionCycle(study, 2)
+    block = 1e6
+    nz, (nx, ny) = len(cycle.z), cycle.grid.shape
+    rate = np.zeros((nz, nx, ny))
+    rate[0] = (nx * ny / (block * (np.arange(nx * ny) + 0.5))).reshape(nx, ny)
+    fixed = _fake_result((nx, ny), nz, 0.0, 0.0)
+    fixed = dataclasses.replace(fixed, bodies=tuple(
+        dataclasses.replace(b, damage_rate=rate) for b in fixed.bodies))
+    monkeypatch.setattr("micropit_hpc.life.evaluate_cycle", lambda *a: fixed)
+    for splits in (10_000, 1):
+        state = initial_state(cycle)
+        params = LifeParams(k_lub=0.0, block=block, max_splits=splits, max_damage_step=1e9)
+        rec = run_block(cycle, state, params)
+        assert all(bs.pitted.all() for bs in state.bodies)
+        if splits == 1:
+            assert rec.sub_blocks == 1 and rec.pit_step == 1.0
+        else:
+            assert 0 < rec.pit_step <= params.max_pit_step
+            assert rec.sub_blocks >= 1 / params.max_pit_step
+
+
 def test_the_split_limits_the_share_of_newly_pitted_columns():
     """The pit cascade is resolved in time: 100 columns whose surface layer fails one after
     another, column k at (k + 1)/100 of the block, are split until a sub-block pits at most

@@ -3,6 +3,7 @@
 import csv
 import json
 import math
+import re
 from dataclasses import replace
 from pathlib import Path
 
@@ -44,7 +45,7 @@ def test_work_item_ids_are_stable():
         (4, 2, 0.0, 1.0)]
 
 
-def test_run_writes_summary_and_results(tmp_path):
+def test_run_writes_summary_and_results(tmp_path, capsys):
     doc = tiny_doc(slide_roll=(0.3,), k_lub=(0.0, 1e-11))
     doc["study"]["roughness_scale"] = [1.0, 0.5]
     scene = _write_scene(tmp_path / "tiny.toml", doc)
@@ -72,6 +73,13 @@ def test_run_writes_summary_and_results(tmp_path):
         pitted = f["maps/item_00002/body1/pitted"][()]
         assert ap[0] == pytest.approx(100 * pitted.mean())
         assert f["maps/item_00002/body1/damage"].shape == (6, 32, 32)
+        # the split is floored at ΔN/4 here: the log names each item whose pit step exceeded
+        # life.max_pit_step (a share of the window per sub-block), and only those
+        over = {i for i in range(4) if f[f"history/item_{i:05d}/pit_step"][()].max() > 0.01}
+    err = capsys.readouterr().err
+    warned = {int(m) for m in re.findall(r"warning: item (\d+), block \d+: one sub-block "
+                                         r"newly pitted", err)}
+    assert over and warned == over
     assert not list((tmp_path / "out").glob("*.tmp"))
 
 

@@ -78,7 +78,8 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
                 for name, unit in (("block", "1"), ("cycles", "1"), ("sub_blocks", "1"),
                                    ("phi", "1"), ("wall_s", "s"), ("Ap", "%"),
                                    ("max_damage", "1"), ("wear_mean", "m"), ("wear_max", "m"),
-                                   ("Rq", "m"), ("n_micro", "1"), ("wear_step", "1")):
+                                   ("Rq", "m"), ("n_micro", "1"), ("wear_step", "1"),
+                                   ("pit_step", "1")):
                     g[name] = np.array([getattr(r, name) for r in recs])  # (blocks[, 2 bodies])
                     g[name].attrs["unit"] = unit
             mg = f.create_group("maps")
