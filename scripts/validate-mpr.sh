@@ -5,8 +5,9 @@
 # surfaces' correlation length along rolling doubled (scenes/*_beta30.toml: the paper's maps
 # are not public, so this is the sensitivity to that unknown, not a fit); writes the
 # side-by-side tables next to the results in runs/<scene>/ and prints the trend verdicts.
-# About 1.5 h on 2 cores: paper_mpr 4.5 min, paper_mpr_beta30 4.8, paper_mpr_table9_beta30 35,
-# paper_mpr_table9 about 45 (its first block 14 min) (SCENES="paper_mpr" for a subset).
+# On 2 cores (commit 9d3aafc): paper_mpr 5.9 min, paper_mpr_beta30 11.6, paper_mpr_table9_beta30
+# 33.7; paper_mpr_table9 not yet timed with the pit limit (its first block took 14 min without
+# it), so well over 1 h in all (SCENES="paper_mpr" for a subset).
 # Exit status 1 if a trend fails.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
