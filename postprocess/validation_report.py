@@ -84,7 +84,8 @@ def _run_info(run: Path) -> dict:
     with h5py.File(run / "results.h5", "r") as f:
         a = f.attrs
         return {"wall_s": float(a.get("wall_s", math.nan)), "ranks": int(a.get("ranks", 0)),
-                "status": str(a.get("status", "?")), "items": int(f["items/id"].shape[0])}
+                "status": str(a.get("status", "?")), "items": int(f["items/id"].shape[0]),
+                "created": str(a.get("created_utc", "?"))[:16].replace("T", " ")}
 
 
 def _points(rows: list[dict], k_lub: float, body: int) -> list[FlankPoint]:
@@ -291,12 +292,17 @@ def mpr(runs: Path, out: Path, md: list[str]) -> list[Verdict]:
     return verdicts
 
 
-def _commit() -> str:
+def _commit(out: Path) -> str:
+    """HEAD, and whether tracked files other than the report's own (``out``) differ from it."""
     try:
         head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, text=True,
                               capture_output=True, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no"],
-                               cwd=ROOT, text=True, capture_output=True).stdout.strip()
+        spec = ["."]
+        if out.resolve().is_relative_to(ROOT):
+            spec.append(f":(exclude){out.resolve().relative_to(ROOT)}")
+        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--",
+                                *spec], cwd=ROOT, text=True, capture_output=True,
+                               check=True).stdout.strip()
         return head + (" (with uncommitted changes)" if dirty else "")
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
@@ -308,6 +314,7 @@ def main() -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "docs" / "validation")
     a = ap.parse_args()
     a.out.mkdir(parents=True, exist_ok=True)
+    commit = _commit(a.out)
     gear_md: list[str] = []
     t5_md: list[str] = []
     t8_md: list[str] = []
@@ -330,12 +337,12 @@ def main() -> int:
             info = _run_info(run)
             total += info["wall_s"]
             runs_info.append([name, info["items"], info["ranks"], f"{info['wall_s']:.0f}",
-                              info["status"]])
+                              info["status"], info["created"]])
         else:
-            runs_info.append([name, "", "", "", "missing"])
+            runs_info.append([name, "", "", "", "missing", ""])
     md = ["# Validation report", "",
           f"Written by `bash scripts/validate.sh` (`postprocess/validation_report.py`) on "
-          f"{dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} UTC at commit {_commit()}. The paper: "
+          f"{dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} UTC at commit {commit}. The paper: "
           "Morales-Espejel, Rycerz & Kadiric, Wear 398–399 (2018); its tables are in "
           "`validation/`. The absolute A_p depends on the roughness patch, which is not public "
           "(the paper says so itself), so MODEL.md §7 sets trends; the findings behind each "
@@ -351,7 +358,8 @@ def main() -> int:
                "scenes, β_x = 30 µm instead of 15 µm; not a fit):", ""]
         md += [f"* trend {v.trend}: {'PASS' if v.holds else 'FAIL'} — {v.text}" for v in extra]
     md += ["", "## Runs", ""]
-    md += _md_table(["scene", "items", "ranks", "wall s", "status"], runs_info)
+    md += _md_table(["scene", "items", "ranks", "wall s", "status", "results written (UTC)"],
+                    runs_info)
     md += ["", f"Total wall time of the runs: {total / 60:.1f} min.", "",
            "## Gear flank, z = 23 (Table 4, Fig. 8, Fig. 9)", "", *gear_md]
     md += ["", "## S fixed at ±0.044 (Table 5)", *t5_md]
