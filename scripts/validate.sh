@@ -5,7 +5,9 @@
 # paper_gear_z23_table8.toml and paper_gear_z18.toml: Table 8), then the report
 # docs/validation/README.md with the figures, our numbers beside the paper's and one PASS/FAIL
 # line per trend (postprocess/validation_report.py). Runs go to runs/<scene>/.
-# 53 min of runs on 2 cores for the committed report (commit 73004ad); since max_splits went from 4 to 64 the MPR part alone takes about 1.5 h and the gear wear items take more sub-blocks (not yet measured). GEARS_ONLY=1 skips the MPR runs (their last results are reused).
+# On 2 cores (commit cf4625f): the gear studies 22 min; the MPR scenes 51 min without
+# paper_mpr_table9 (scripts/validate-mpr.sh gives each). GEARS_ONLY=1 skips the MPR runs
+# (their last results are reused).
 # Exit status 1 if a trend fails (the report is written either way).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
