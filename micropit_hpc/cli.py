@@ -132,30 +132,31 @@ def _cmd_run(args: argparse.Namespace) -> int:
         progress[0] = (Progress(blocks, "blocks", initial=start) if rank0
                        else NullProgress(blocks, "blocks"))
 
-    warned: set[int] = set()           # items warned about the wear step
-    warned_pits: set[int] = set()      # items warned about the pit step
+    life = scene.life
+    why_wear = ("for a stable wear update" if life.wear_integration == "explicit" else
+                "to follow the running-in in finer steps (the relaxed update keeps each step "
+                "within the elastic relief of the contact spots)")
+    # (record field, limit, what one sub-block did, unit scale, why finer steps) of the split
+    limits = (("wear_step", life.max_wear_fraction, "one sub-block's wear changed the surface "
+               "by up to {} × R_q", 1.0, "life.max_wear_fraction", why_wear),
+              ("pit_step", life.max_pit_step, "one sub-block newly pitted up to {} % of the "
+               "window", 100.0, "life.max_pit_step", "to follow the cascade of pits in finer "
+               "steps"))
+    warned: dict[str, set[int]] = {f[0]: set() for f in limits}   # once per item and limit
 
     def on_block(k: int, blocks: int, records: dict) -> None:
-        limit = scene.life.max_wear_fraction
-        for iid, recs in records.items():
-            if recs and recs[-1].wear_step > limit * (1 + 1e-9) and iid not in warned:
-                warned.add(iid)
-                why = ("for a stable wear update" if scene.life.wear_integration == "explicit"
-                       else "to follow the running-in in finer steps (the relaxed update keeps "
-                       "each step within the elastic relief of the contact spots)")
-                log(f"warning: item {iid}, block {k}: one sub-block's wear changed the surface "
-                    f"by {recs[-1].wear_step:.3g} × R_q somewhere (life.max_wear_fraction = "
-                    f"{limit:g}); the split "
-                    f"stopped at life.max_splits = {scene.life.max_splits}. Raise max_splits "
-                    f"(or lower life.block_M) {why} (docs/life.md)")
-            if recs and recs[-1].pit_step > scene.life.max_pit_step * (1 + 1e-9) \
-                    and iid not in warned_pits:
-                warned_pits.add(iid)
-                log(f"warning: item {iid}, block {k}: one sub-block newly pitted "
-                    f"{100 * recs[-1].pit_step:.3g} % of the window (life.max_pit_step = "
-                    f"{scene.life.max_pit_step:g}); the split stopped at life.max_splits = "
-                    f"{scene.life.max_splits}. Raise max_splits (or lower life.block_M) to "
-                    f"follow the cascade of pits in finer steps (docs/life.md)")
+        for name, limit, did, scale, key, why in limits:
+            over = {iid: getattr(recs[-1], name) for iid, recs in records.items()
+                    if recs and iid not in warned[name]
+                    and getattr(recs[-1], name) > limit * (1 + 1e-9)}
+            if over:
+                warned[name].update(over)
+                worst = max(over, key=over.get)
+                log(f"warning: block {k}, {_item_list(sorted(over))}: "
+                    f"{did.format(f'{scale * over[worst]:.3g}')} (item {worst}), above {key} "
+                    f"= {limit:g}; the split stopped at life.max_splits = {life.max_splits}. "
+                    f"Raise max_splits (or lower life.block_M) {why} (docs/life.md)")
+
         ap = max((r[-1].Ap[0] for r in records.values() if r), default=0.0)
         progress[0].update(k, f"{k * len(records)} item-blocks of {blocks * len(records)}, "
                               f"max A_p body 1 {ap:.3g} %")
@@ -352,3 +353,12 @@ def main(argv: list[str] | None = None) -> int:
             return EXIT_USER_ERROR  # every rank read the same file: rank 0 says it once
         print(f"micropit: error: {e}", file=sys.stderr, flush=True)
         return EXIT_USER_ERROR
+
+
+def _item_list(ids: list[int], show: int = 12) -> str:
+    """'item 3', 'items 0, 1, 4' or 'items 0, 1, … and 40 more (42 items)'."""
+    if len(ids) == 1:
+        return f"item {ids[0]}"
+    head = ", ".join(map(str, ids[:show]))
+    more = f", … and {len(ids) - show} more ({len(ids)} items)" if len(ids) > show else ""
+    return f"items {head}{more}"

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from test_life import tiny_doc
 
-from micropit_hpc.cli import main
+from micropit_hpc.cli import _item_list, main
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.scene import scene_from_dict
 from micropit_hpc.study import SUMMARY_COLUMNS, Study, work_items
@@ -73,14 +73,26 @@ def test_run_writes_summary_and_results(tmp_path, capsys):
         pitted = f["maps/item_00002/body1/pitted"][()]
         assert ap[0] == pytest.approx(100 * pitted.mean())
         assert f["maps/item_00002/body1/damage"].shape == (6, 32, 32)
-        # the split is floored at ΔN/4 here: the log names each item whose pit step exceeded
-        # life.max_pit_step (a share of the window per sub-block), and only those
-        over = {i for i in range(4) if f[f"history/item_{i:05d}/pit_step"][()].max() > 0.01}
+        # the split is floored at ΔN/4 here: the log names each item whose pit step (share of
+        # the window per sub-block) or wear step (shape change over R_q) exceeded its limit,
+        # and only those
+        over = {name: {i for i in range(4)
+                       if f[f"history/item_{i:05d}/{name}"][()].max() > limit}
+                for name, limit in (("pit_step", 0.01), ("wear_step", 0.1))}
     err = capsys.readouterr().err
-    warned = {int(m) for m in re.findall(r"warning: item (\d+), block \d+: one sub-block "
-                                         r"newly pitted", err)}
-    assert over and warned == over
+    for name, what in (("pit_step", "newly pitted"), ("wear_step", "wear changed")):
+        warned = {int(i) for m in re.findall(rf"warning: block \d+, items? ([\d, ]+): one "
+                                             rf"sub-block(?:'s)? {what}", err)
+                  for i in m.split(",")}
+        assert warned == over[name], name
+    assert over["pit_step"] and over["wear_step"]
     assert not list((tmp_path / "out").glob("*.tmp"))
+
+
+def test_a_warning_names_few_items_and_counts_many():
+    assert _item_list([3]) == "item 3"
+    assert _item_list([0, 4]) == "items 0, 4"
+    assert _item_list(list(range(20)), show=3) == "items 0, 1, 2, … and 17 more (20 items)"
 
 
 def test_bad_position_is_a_clear_error(tmp_path, capsys):
