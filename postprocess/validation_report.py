@@ -85,7 +85,8 @@ def _run_info(run: Path) -> dict:
         a = f.attrs
         return {"wall_s": float(a.get("wall_s", math.nan)), "ranks": int(a.get("ranks", 0)),
                 "status": str(a.get("status", "?")), "items": int(f["items/id"].shape[0]),
-                "created": str(a.get("created_utc", "?"))[:16].replace("T", " ")}
+                "created": str(a.get("created_utc", "?"))[:16].replace("T", " "),
+                "commit": str(a.get("source_commit", "")) or "not recorded"}
 
 
 def _points(rows: list[dict], k_lub: float, body: int) -> list[FlankPoint]:
@@ -337,9 +338,9 @@ def main() -> int:
             info = _run_info(run)
             total += info["wall_s"]
             runs_info.append([name, info["items"], info["ranks"], f"{info['wall_s']:.0f}",
-                              info["status"], info["created"]])
+                              info["status"], info["created"], info["commit"]])
         else:
-            runs_info.append([name, "", "", "", "missing", ""])
+            runs_info.append([name, "", "", "", "missing", "", ""])
     md = ["# Validation report", "",
           f"Written by `bash scripts/validate.sh` (`postprocess/validation_report.py`) on "
           f"{dt.datetime.now(dt.UTC):%Y-%m-%d %H:%M} UTC at commit {commit}. The paper: "
@@ -358,8 +359,8 @@ def main() -> int:
                "scenes, β_x = 30 µm instead of 15 µm; not a fit):", ""]
         md += [f"* trend {v.trend}: {'PASS' if v.holds else 'FAIL'} — {v.text}" for v in extra]
     md += ["", "## Runs", ""]
-    md += _md_table(["scene", "items", "ranks", "wall s", "status", "results written (UTC)"],
-                    runs_info)
+    md += _md_table(["scene", "items", "ranks", "wall s", "status", "results written (UTC)",
+                     "commit"], runs_info)
     md += ["", f"Total wall time of the runs: {total / 60:.1f} min.", "",
            "## Gear flank, z = 23 (Table 4, Fig. 8, Fig. 9)", "", *gear_md]
     md += ["", "## S fixed at ±0.044 (Table 5)", *t5_md]

@@ -60,6 +60,8 @@ def test_run_writes_summary_and_results(tmp_path, capsys):
         assert 0.0 <= float(r["max_damage"]) < 1.0
     with h5py.File(tmp_path / "out" / "results.h5", "r") as f:
         assert f.attrs["complete"] == 1
+        if (ROOT / ".git").exists():            # the code that made the numbers, traceable
+            assert re.fullmatch(r"[0-9a-f]{7,}(-dirty)?", f.attrs["source_commit"])
         lam_h5 = f["items/Lambda"][()]
         assert lam_h5[1] == pytest.approx(2 * lam_h5[0], rel=1e-12)
         # λ_GF = h_c / ½(R_a1 + R_a2) of the item's own surfaces, so × 0.5 roughness ⇒ × 2;

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from micropit_hpc import __version__
+from micropit_hpc import __version__, source_commit
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.io.hdf5 import atomic_h5, scene_json
 from micropit_hpc.report import write_text_atomic
@@ -46,6 +46,7 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
     try:
         with atomic_h5(path) as f:
             f.attrs["code_version"] = __version__
+            f.attrs["source_commit"] = source_commit()
             f.attrs["scene"] = scene_json(study.scene.document)
             f.attrs["scene_file"] = str(study.scene.source)
             f.attrs["created_utc"] = _dt.datetime.now(_dt.UTC).isoformat()

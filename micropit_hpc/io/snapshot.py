@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from micropit_hpc import __version__
+from micropit_hpc import __version__, source_commit
 from micropit_hpc.io.hdf5 import atomic_h5, scene_json
 
 VOIGT = "xx,yy,zz,yz,xz,xy"
@@ -27,6 +27,7 @@ def write_snapshot(path: str | Path, cycle, fields, stresses: dict[int, np.ndarr
         a = f.attrs
         a["format"] = "micropit_hpc snapshot 1"
         a["code_version"] = __version__
+        a["source_commit"] = source_commit()
         a["created_utc"] = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
         a["scene"] = scene_json(cycle.scene.document)
         a["scene_file"] = cycle.scene.source
