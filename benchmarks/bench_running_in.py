@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import subprocess
 import time
 import tomllib
 
+from micropit_hpc import source_commit
 from micropit_hpc.scene import scene_from_dict
 from micropit_hpc.study import ItemRun, WorkItem
 
@@ -45,13 +45,11 @@ def main() -> None:
         life["max_pit_step"] = args.max_pit_step
     scene = scene_from_dict(doc, args.scene)
     run = ItemRun(scene, WorkItem(0, args.position, args.k_lub, args.scale, 0))
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True).stdout.strip()
     print(f"# {args.scene}, window {run.cycle.grid.nx}², position {args.position}, k_lub "
           f"{args.k_lub:g} s, roughness × {args.scale:g}, max_splits {run.params.max_splits}, "
           f"max_wear_fraction {run.params.max_wear_fraction:g}, "
           f"max_pit_step {run.params.max_pit_step:g}; "
-          f"{datetime.date.today()}, commit {commit}, one rank")
+          f"{datetime.date.today()}, commit {source_commit()}, one rank")
     print("| block | sub-blocks | φ | A_p body 1 / 2 [%] | n_μ 1 / 2 | mean wear 1 / 2 [nm] "
           "| λ_c seen by 1 / 2 [µm] | wall [s] |")
     print("|---|---|---|---|---|---|---|---|")
