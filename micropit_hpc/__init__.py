@@ -14,13 +14,27 @@ __version__ = "0.1.0"
 
 @functools.cache
 def source_commit() -> str:
-    """The git commit of the package's source (``git describe --always --dirty``), or "" where
-    it is not a git checkout or git is missing; written into results files so that a number can
-    be traced to the code that made it. Asked once per process."""
-    try:
-        out = subprocess.run(["git", "describe", "--always", "--dirty", "--abbrev=7"],
-                             cwd=Path(__file__).resolve().parent, capture_output=True,
-                             text=True, timeout=10)
-    except (OSError, subprocess.SubprocessError):
+    """The git commit of the package's source, or "" where it is not a git checkout or git is
+    missing; written into results files so that a number can be traced to the code that made
+    it. Asked once per process (:func:`describe_source`)."""
+    return describe_source(Path(__file__).resolve().parent)
+
+
+def describe_source(directory: Path) -> str:
+    """``git describe --always --abbrev=7`` of the checkout holding ``directory``, with
+    "-dirty" appended when a file under ``directory`` differs from that commit (changes
+    elsewhere in the checkout, such as docs or run folders, do not make the numbers differ);
+    "" where git or the checkout is missing."""
+    def git(*args: str) -> str | None:
+        try:
+            out = subprocess.run(["git", *args], cwd=directory, capture_output=True, text=True,
+                                 timeout=10)
+        except (OSError, subprocess.SubprocessError):
+            return None
+        return out.stdout.strip() if out.returncode == 0 else None
+
+    commit = git("describe", "--always", "--abbrev=7")
+    if not commit:
         return ""
-    return out.stdout.strip() if out.returncode == 0 else ""
+    changed = git("status", "--porcelain", "--untracked-files=no", "--", ".")
+    return commit + ("-dirty" if changed else "")
