@@ -85,6 +85,7 @@ def _run_info(run: Path) -> dict:
         a = f.attrs
         return {"wall_s": float(a.get("wall_s", math.nan)), "ranks": int(a.get("ranks", 0)),
                 "status": str(a.get("status", "?")), "items": int(f["items/id"].shape[0]),
+                "restarted": int(a.get("restarted_from_block", 0)),
                 "created": str(a.get("created_utc", "?"))[:16].replace("T", " "),
                 "commit": str(a.get("source_commit", "")) or "not recorded"}
 
@@ -331,14 +332,18 @@ def main() -> int:
             continue
         primary.setdefault(v.trend, v)
     runs_info = []
-    total = 0.0
+    total, restarted = 0.0, False
     for name in MPR_SCENES + GEAR_SCENES:
         run = a.runs / name
         if (run / "results.h5").is_file():
             info = _run_info(run)
             total += info["wall_s"]
+            status = info["status"]
+            if info["restarted"]:
+                restarted = True
+                status += f" (restarted after block {info['restarted']}*)"
             runs_info.append([name, info["items"], info["ranks"], f"{info['wall_s']:.0f}",
-                              info["status"], info["created"], info["commit"]])
+                              status, info["created"], info["commit"]])
         else:
             runs_info.append([name, "", "", "", "missing", "", ""])
     md = ["# Validation report", "",
@@ -361,6 +366,9 @@ def main() -> int:
     md += ["", "## Runs", ""]
     md += _md_table(["scene", "items", "ranks", "wall s", "status", "results written (UTC)",
                      "commit"], runs_info)
+    if restarted:
+        md += ["", "\\* A restarted run records the wall time, time and commit of its last leg "
+               "only; the blocks before the restart come from its checkpoint."]
     md += ["", f"Total wall time of the runs: {total / 60:.1f} min.", "",
            "## Gear flank, z = 23 (Table 4, Fig. 8, Fig. 9)", "", *gear_md]
     md += ["", "## S fixed at ±0.044 (Table 5)", *t5_md]
