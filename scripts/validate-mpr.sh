@@ -6,8 +6,8 @@
 # are not public, so this is the sensitivity to that unknown, not a fit); writes the
 # side-by-side tables next to the results in runs/<scene>/ and prints the trend verdicts.
 # On 2 cores (commit 9d3aafc): paper_mpr 5.9 min, paper_mpr_beta30 11.6, paper_mpr_table9_beta30
-# 33.7; paper_mpr_table9 not yet timed with the pit limit (its first block took 14 min without
-# it), so well over 1 h in all (SCENES="paper_mpr" for a subset).
+# 33.7; paper_mpr_table9 about 90 min (6 blocks of 12-17 min, commits 1114554 and 5bdf427),
+# so about 2 h 20 min in all (SCENES="paper_mpr" for a subset).
 # Exit status 1 if a trend fails.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)

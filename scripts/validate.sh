@@ -5,8 +5,9 @@
 # paper_gear_z23_table8.toml and paper_gear_z18.toml: Table 8), then the report
 # docs/validation/README.md with the figures, our numbers beside the paper's and one PASS/FAIL
 # line per trend (postprocess/validation_report.py). Runs go to runs/<scene>/.
-# On 2 cores (commit cf4625f): the gear studies 22 min; the MPR scenes 51 min without
-# paper_mpr_table9 (scripts/validate-mpr.sh gives each). GEARS_ONLY=1 skips the MPR runs
+# On 2 cores (commits cf4625f, 5bdf427): the gear studies 22 min; the MPR scenes 51 min plus
+# about 90 min for paper_mpr_table9, about 2 h 45 min in all (scripts/validate-mpr.sh gives
+# each). SCENES="..." picks MPR scenes; GEARS_ONLY=1 skips the MPR runs
 # (their last results are reused).
 # Exit status 1 if a trend fails (the report is written either way).
 set -euo pipefail
