@@ -32,6 +32,7 @@ def main() -> None:
     ap.add_argument("--max-wear-fraction", type=float, default=None)
     ap.add_argument("--max-pit-step", type=float, default=None)
     ap.add_argument("--wear-integration", choices=("relaxed", "explicit"), default=None)
+    ap.add_argument("--peak-spacing-min-cells", type=float, default=None)
     args = ap.parse_args()
     with open(args.scene, "rb") as f:
         doc = tomllib.load(f)
@@ -46,13 +47,16 @@ def main() -> None:
         life["max_pit_step"] = args.max_pit_step
     if args.wear_integration is not None:
         life["wear_integration"] = args.wear_integration
+    if args.peak_spacing_min_cells is not None:
+        doc.setdefault("fatigue", {})["peak_spacing_min_cells"] = args.peak_spacing_min_cells
     scene = scene_from_dict(doc, args.scene)
     run = ItemRun(scene, WorkItem(0, args.position, args.k_lub, args.scale, 0))
     print(f"# {args.scene}, window {run.cycle.grid.nx}², position {args.position}, k_lub "
           f"{args.k_lub:g} s, roughness × {args.scale:g}, max_splits {run.params.max_splits}, "
           f"max_wear_fraction {run.params.max_wear_fraction:g}, "
           f"max_pit_step {run.params.max_pit_step:g}, "
-          f"wear {run.params.wear_integration}; "
+          f"wear {run.params.wear_integration}, "
+          f"peak_spacing_min_cells {run.params.peak_spacing_min_cells:g}; "
           f"{datetime.date.today()}, commit {source_commit()}, one rank")
     print("| block | sub-blocks | φ | A_p body 1 / 2 [%] | n_μ 1 / 2 | mean wear 1 / 2 [nm] "
           "| λ_c seen by 1 / 2 [µm] | wall [s] |")
