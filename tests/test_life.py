@@ -20,12 +20,14 @@ from micropit_hpc.life import (
     evaluate_cycle,
     initial_state,
     micro_cycles,
+    rainflow_steps,
     run_block,
     shape_change,
     sub_block_cycles,
 )
 from micropit_hpc.pits import detach, layer_bottoms, shift_columns
 from micropit_hpc.scene import scene_from_dict
+from micropit_hpc.study import ItemRun, WorkItem
 from micropit_hpc.wear import WearRate, archard_wear, to_material_frame
 
 
@@ -175,6 +177,44 @@ def test_zero_sliding_gives_no_micropits(tiny):
     assert rec.max_damage[0] < 1e-6
     assert rec.wear_max == (0.0, 0.0)              # no sliding, no Archard wear
     assert all((bs.damage >= 0).all() for bs in st.bodies)
+
+
+def test_rainflow_steps_keep_the_slip_per_step_within_a_quarter_of_the_peak_spacing(tiny):
+    """MODEL.md §4.4: relative slip per step 2b|S|/m ≤ λ_c/4, with the fewest such steps, and
+    never fewer than asked; no refinement without sliding or without roughness."""
+    _, study = tiny
+    c = study.conditions[1]
+    slip = 2.0 * c.b * abs(c.S)
+    for lam in (0.5e-6, 2e-6, 5e-6, 10e-6):
+        m = rainflow_steps(c, 8, lam)
+        assert slip / m <= lam / 4 * (1 + 1e-12)
+        assert m == 8 or slip / (m - 1) > lam / 4
+    assert rainflow_steps(c, 8, 2e-6) > 8                 # 2b|S| is many λ_c/4 here
+    assert rainflow_steps(c, 8, 1.0) == 8
+    assert rainflow_steps(c, 8, float("inf")) == 8
+    assert rainflow_steps(study.conditions[0], 8, 2e-6) == 8      # S = 0
+
+
+def test_a_rainflow_life_run_refines_the_steps_and_counts_at_least_the_largest_cycle():
+    """counting = "rainflow": the item raises its time steps to resolve the counterface (and
+    says so), and the damage per load cycle of every point is at least that of its largest
+    cycle, 1/N(τ_DV): periodic counting always closes the cycle through the maximum."""
+    doc = tiny_doc()
+    doc["fatigue"] = {"counting": "rainflow"}
+    doc["window"]["steps"] = 3                     # 2b|S| = 56 µm needs 8 steps at λ_c 31 µm
+    scene = scene_from_dict(doc, "tiny_rainflow.toml")
+    said = []
+    run = ItemRun(scene, WorkItem(0, 2, 0.0, 1.0, 0), log=said.append)
+    assert run.cycle.steps > scene.window.steps
+    assert len(said) == 1 and f"to {run.cycle.steps}" in said[0]
+    res = evaluate_cycle(run.cycle, run.state, run.params)
+    for bc in res.bodies:
+        largest = run.params.woehler.damage(bc.tau_rough)
+        assert largest.max() > 0
+        assert (bc.damage_rate >= largest * (1 - 1e-12)).all()
+        assert (bc.damage_rate >= 0).all()
+    rec = run.run_block()
+    assert 0 <= rec.Ap[0] <= 100 and 0 <= rec.Ap[1] <= 100
 
 
 def test_sliding_pits_and_worn_volume(tiny):
