@@ -142,7 +142,8 @@ def coarse_quick_scene(path, positions: str):
 
 
 def test_quick_scene_runs_and_the_flank_plot_reads_it(tmp_path):
-    """scenes/quick.toml (coarsened) through `micropit run` and postprocess/plot_flank.py."""
+    """scenes/quick.toml (coarsened) through `micropit run`, postprocess/plot_flank.py and
+    postprocess/plot_life.py."""
     import subprocess
     import sys
 
@@ -160,6 +161,10 @@ def test_quick_scene_runs_and_the_flank_plot_reads_it(tmp_path):
     assert abs(float(pitch["S"])) < 1e-9
     assert float(pitch["Ap1_pct"]) == 0.0 and float(pitch["Ap2_pct"]) == 0.0
     assert (out / "flank.png").stat().st_size > 10_000
+    run = subprocess.run([sys.executable, str(ROOT / "postprocess" / "plot_life.py"), str(out)],
+                         capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert (out / "life.png").stat().st_size > 10_000     # A_p against cycles, damage maps
 
 
 @pytest.mark.parametrize("S", [2.0, -2.0])
