@@ -74,7 +74,11 @@ def test_run_writes_summary_and_results(tmp_path, capsys):
         ap = f["history/item_00002/Ap"][-1]
         pitted = f["maps/item_00002/body1/pitted"][()]
         assert ap[0] == pytest.approx(100 * pitted.mean())
-        assert f["maps/item_00002/body1/damage"].shape == (6, 32, 32)
+        damage = f["maps/item_00002/body1/damage"][()]
+        assert damage.shape == (6, 32, 32)
+        # the damage-risk map (Fig. 6): the largest damage over depth of each column
+        np.testing.assert_array_equal(f["maps/item_00002/body1/damage_risk"][()],
+                                      damage.max(axis=0))
         # the split is floored at ΔN/4 here: the log names each item whose pit step (share of
         # the window per sub-block) or wear step (shape change over R_q) exceeded its limit,
         # and only those
