@@ -105,7 +105,18 @@ def table9(run: Path, say=print) -> bool:
     t1 = None not in b and b[1] > b[0] and b[1] > b[2]
     say(f"trend 7 at {n_end / 1e6:g} M, k_lub = 1e-11 s: A_p rises then falls as Λ falls "
         f"(largest at the middle Λ): {_r(b)} -> {'holds' if t1 else 'FAILS'}")
+    say(f"wear cuts A_p by {_cuts(a, b)} at Λ = {_r(lams, 3)} (paper: "
+        f"{_cuts(*([float(p[c]) for p in paper] for c in ('Ap_pct_klub0', 'Ap_pct_klub1e-11')))})")
     return t0 and t1
+
+
+def _cuts(without, with_wear) -> str:
+    """A_p without wear over A_p with wear, per Λ (informative; not a trend of MODEL.md §7)."""
+    def cut(a, b):
+        if a is None or b is None:
+            return "—"
+        return "∞" if b == 0 else f"{a / b:.3g}×"
+    return "[" + ", ".join(cut(a, b) for a, b in zip(without, with_wear, strict=True)) + "]"
 
 
 def main() -> int:

@@ -76,7 +76,9 @@ PAPER9 = ([7.19, 2.78, 0.24], [0.073, 0.080, 0.056])
 def test_trend7_passes_on_the_papers_table9_and_writes_the_table(tmp_path):
     said = []
     assert paper_mpr.table9(_summary(tmp_path / "run", _table9_rows(*PAPER9)), said.append)
-    assert len(said) == 2 and all(line.endswith("holds") for line in said)
+    assert len(said) == 3 and all(line.endswith("holds") for line in said[:2])
+    # what the paper's numbers carry beyond one pitted column: wear cuts A_p ~100× at low Λ
+    assert said[2].startswith("wear cuts A_p by [98.5×, 34.8×, 4.29×]")
     table = list(csv.DictReader(open(tmp_path / "run" / "table9_comparison.csv")))
     assert [r["Ap_ours_klub1e-11_pct"] for r in table] == ["0.073", "0.08", "0.056"]
     assert [r["Lambda_ours"] for r in table] == ["0.1762", "0.2468", "0.3091"]
@@ -91,3 +93,8 @@ def test_trend7_fails_when_broken(tmp_path, k0, k1, failing):
     said = []
     assert not paper_mpr.table9(_summary(tmp_path / "run", _table9_rows(k0, k1)), said.append)
     assert [failing in line for line in said if line.endswith("FAILS")] == [True]
+
+
+def test_the_wear_cut_is_without_over_with_wear_per_lambda():
+    assert paper_mpr._cuts([31.07, 3.76, 0.5066], [16.08, 0.1648, 0.0]) == "[1.93×, 22.8×, ∞]"
+    assert paper_mpr._cuts([1.0, None], [0.5, 0.1]) == "[2×, —]"
