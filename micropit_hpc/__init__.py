@@ -20,10 +20,11 @@ def source_commit() -> str:
     return describe_source(Path(__file__).resolve().parent)
 
 
-def describe_source(directory: Path) -> str:
+def describe_source(directory: Path, paths: tuple[str, ...] = (".",)) -> str:
     """``git describe --always --abbrev=7`` of the checkout holding ``directory``, with
-    "-dirty" appended when a file under ``directory`` differs from that commit (changes
-    elsewhere in the checkout, such as docs or run folders, do not make the numbers differ);
+    "-dirty" appended when a tracked file matched by the git pathspecs ``paths`` (relative to
+    ``directory``; default: everything under it) differs from that commit. Changes elsewhere
+    in the checkout, such as docs or run folders, do not make the package's numbers differ.
     "" where git or the checkout is missing."""
     def git(*args: str) -> str | None:
         try:
@@ -36,5 +37,5 @@ def describe_source(directory: Path) -> str:
     commit = git("describe", "--always", "--abbrev=7")
     if not commit:
         return ""
-    changed = git("status", "--porcelain", "--untracked-files=no", "--", ".")
+    changed = git("status", "--porcelain", "--untracked-files=no", "--", *paths)
     return commit + ("-dirty" if changed else "")

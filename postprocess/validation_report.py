@@ -18,7 +18,6 @@ import csv
 import datetime as dt
 import math
 import shutil
-import subprocess
 import sys
 from pathlib import Path
 
@@ -38,6 +37,7 @@ sys.path.insert(0, str(ROOT))
 import paper_mpr  # noqa: E402
 import plot_flank  # noqa: E402
 
+from micropit_hpc import describe_source  # noqa: E402
 from micropit_hpc.trends import (  # noqa: E402
     FlankPoint,
     Verdict,
@@ -296,18 +296,14 @@ def mpr(runs: Path, out: Path, md: list[str]) -> list[Verdict]:
 
 def _commit(out: Path) -> str:
     """HEAD, and whether tracked files other than the report's own (``out``) differ from it."""
-    try:
-        head = subprocess.run(["git", "rev-parse", "--short", "HEAD"], cwd=ROOT, text=True,
-                              capture_output=True, check=True).stdout.strip()
-        spec = ["."]
-        if out.resolve().is_relative_to(ROOT):
-            spec.append(f":(exclude){out.resolve().relative_to(ROOT)}")
-        dirty = subprocess.run(["git", "status", "--porcelain", "--untracked-files=no", "--",
-                                *spec], cwd=ROOT, text=True, capture_output=True,
-                               check=True).stdout.strip()
-        return head + (" (with uncommitted changes)" if dirty else "")
-    except (OSError, subprocess.CalledProcessError):
+    spec = (".",)
+    if out.resolve().is_relative_to(ROOT):
+        spec += (f":(exclude){out.resolve().relative_to(ROOT)}",)
+    commit = describe_source(ROOT, spec)
+    if not commit:
         return "unknown"
+    return commit.removesuffix("-dirty") + (" (with uncommitted changes)"
+                                             if commit.endswith("-dirty") else "")
 
 
 def main() -> int:

@@ -31,6 +31,9 @@ def test_only_changes_inside_the_package_make_the_commit_dirty(tmp_path):
     (tmp_path / "README.md").write_text("edited\n")
     (pkg / "untracked.txt").write_text("scratch\n")
     assert describe_source(pkg) == head
+    # the validation report asks about the whole checkout less its own output
+    assert describe_source(tmp_path, (".", ":(exclude)README.md")) == head
+    assert describe_source(tmp_path) == head + "-dirty"
     (pkg / "a.py").write_text("x = 2\n")
     assert describe_source(pkg) == head + "-dirty"
 
