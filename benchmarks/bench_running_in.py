@@ -38,17 +38,12 @@ def main() -> None:
         doc = tomllib.load(f)
     if args.n is not None:
         doc.setdefault("window", {})["n"] = args.n
-    life = doc.setdefault("life", {})
-    if args.max_splits is not None:
-        life["max_splits"] = args.max_splits
-    if args.max_wear_fraction is not None:
-        life["max_wear_fraction"] = args.max_wear_fraction
-    if args.max_pit_step is not None:
-        life["max_pit_step"] = args.max_pit_step
-    if args.wear_integration is not None:
-        life["wear_integration"] = args.wear_integration
-    if args.peak_spacing_min_cells is not None:
-        doc.setdefault("fatigue", {})["peak_spacing_min_cells"] = args.peak_spacing_min_cells
+    # command-line overrides of scene keys (the option is the key's name)
+    for section, key in (("life", "max_splits"), ("life", "max_wear_fraction"),
+                         ("life", "max_pit_step"), ("life", "wear_integration"),
+                         ("fatigue", "peak_spacing_min_cells")):
+        if getattr(args, key) is not None:
+            doc.setdefault(section, {})[key] = getattr(args, key)
     scene = scene_from_dict(doc, args.scene)
     run = ItemRun(scene, WorkItem(0, args.position, args.k_lub, args.scale, 0))
     print(f"# {args.scene}, window {run.cycle.grid.nx}², position {args.position}, k_lub "
