@@ -218,15 +218,19 @@ class PositionCycle:
         return (u - self.cond.u_mean) * t
 
     # ---- one step ----------------------------------------------------------------------------
-    def solve_step(self, step: int, p_init: np.ndarray | None = None) -> StepFields:
+    def solve_step(self, step: int, p_init: np.ndarray | None = None,
+                   warm: dict | None = None) -> StepFields:
         """Contact at time step ``step`` (MODEL.md §4.1); collective over the group: the
-        root solves and every rank gets its fields."""
+        root solves and every rank gets its fields. ``p_init``: a warm start (the previous
+        step's pressure); ``warm``: a dict the caller keeps for this step from one load-cycle
+        evaluation to the next, whose pressures (the last evaluation's at this step) take
+        precedence as warm starts and are updated (:meth:`MixedLubrication.solve`)."""
         if self.slab.comm.size == 1:
-            return self._solve_step(step, p_init)
+            return self._solve_step(step, p_init, warm)
         fields, error = None, None
         if self.slab.is_root:
             try:
-                fields = self._solve_step(step, p_init)
+                fields = self._solve_step(step, p_init, warm)
             except MicropitError as e:
                 error = e
         fields, error = self.slab.bcast((fields, error))
@@ -234,7 +238,8 @@ class PositionCycle:
             raise error
         return fields
 
-    def _solve_step(self, step: int, p_init: np.ndarray | None) -> StepFields:
+    def _solve_step(self, step: int, p_init: np.ndarray | None,
+                    warm: dict | None = None) -> StepFields:
         g, c, lub = self.grid, self.cond, self.scene.lubrication
         t = self.time(step)
         x_c = self.centre(t)
@@ -247,11 +252,15 @@ class PositionCycle:
             clearance = np.full(g.shape, c.hc)
         elif self.level == "dry":
             gap0 = self._fft.inverse(r_now[0] + r_now[1])
+            start = p_init if warm is None else warm.get("dry", p_init)
             sol = solve_dry_contact(gap0, self.half_spaces, p_mean, p_lim=self.p_lim,
-                                    tol=lub.tol, max_iter=lub.max_iter, p_init=p_init)
+                                    tol=lub.tol, max_iter=lub.max_iter, p_init=start)
             pressure, clearance, phi, iters = sol.pressure, sol.gap, 1.0, sol.iterations
+            if warm is not None:
+                warm["dry"] = pressure.astype(np.float32)
         else:
-            sol = self.mixed.solve(r_now, self.rough_spectra, p_mean, t, p_init=p_init)
+            sol = self.mixed.solve(r_now, self.rough_spectra, p_mean, t, p_init=p_init,
+                                   warm=warm)
             pressure, clearance, phi, iters = sol.pressure, sol.clearance, sol.phi, sol.iterations
         if self.pits is not None and p_mean > 0.0:
             pressure, clearance = self._unload_pits(pressure, clearance, p_mean, t)

@@ -238,9 +238,15 @@ def _around_pits(bs: BodyState) -> np.ndarray:
     return np.where(bs.pitted, h - np.maximum(around - bs.wear, 0.0), h)
 
 
-def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -> CycleResult:
+def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams,
+                   warm: dict | None = None) -> CycleResult:
     """One load cycle on the current surfaces (MODEL.md §4): contact at every step, stresses
-    and Dang Van per body, damage and wear per cycle."""
+    and Dang Van per body, damage and wear per cycle.
+
+    ``warm``: the contact solver's warm starts by time step, kept by the caller from one
+    evaluation to the next (:meth:`PositionCycle.solve_step`); :func:`run_block` keeps them
+    within a block and starts each block without, so that a run restarted from a block's
+    checkpoint repeats the straight run's numbers exactly."""
     t0 = time.perf_counter()
     g = cycle.grid
     if params.pit_contact == "unloaded":   # the surface around the pits; pits carry nothing
@@ -254,7 +260,7 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams) -
     fields, p_prev = [], None
     for j in range(cycle.steps):
         with event("contact"):
-            f = cycle.solve_step(j, p_prev)
+            f = cycle.solve_step(j, p_prev, None if warm is None else warm.setdefault(j, {}))
         fields.append(f)
         p_prev = f.pressure
     p_sum = sum(float(f.pressure.sum()) for f in fields)
@@ -409,9 +415,9 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
     t0 = time.perf_counter()
     left = params.block if cycles is None else cycles
     subs, phi_acc, n_done, wear_step, pit_step = 0, 0.0, 0.0, 0.0, 0.0
-    result = None
+    result, warm = None, {}
     while left > 0:
-        result = evaluate_cycle(cycle, state, params)
+        result = evaluate_cycle(cycle, state, params, warm)
         n = sub_block_cycles(state, result, left, params, cycle.slab)
         before = [bs.pitted.copy() for bs in state.bodies]
         with event("apply_cycles"):

@@ -183,3 +183,40 @@ def test_restore_mean_is_exact_with_clipping():
     q = restore_mean(p, 1.2e9, 4e9)
     assert q.mean() == pytest.approx(1.2e9, rel=1e-12)
     assert q.min() >= 0.0 and q.max() <= 4e9
+
+
+def test_cached_lubricated_factors_equal_the_computed_ones():
+    """The per-step factor cache returns exactly what lubricated_factors computes."""
+    g, _ = _random_pair()
+    model = _model(g, h_mean=0.35e-6)
+    h_a, h_t, D = model.lubricated_factors(2, 1.0e9, 5e-5)
+    for _ in range(2):                   # the miss, then the hit
+        c_a, c_dh, c_D = model.cached_factors(2, 1.0e9, 5e-5)
+        assert np.array_equal(c_a, h_a) and np.array_equal(c_D, D)
+        assert np.array_equal(c_dh, h_t - h_a)
+    assert len(model._factors) == 1
+    assert not np.array_equal(model.cached_factors(1, 1.0e9, 5e-5)[0], h_a)   # S ≠ 0
+
+
+def test_warm_start_from_the_last_evaluation_gives_the_same_solution_in_fewer_iterations():
+    """A step solved again with the last evaluation's warm starts (root, trial fractions)
+    converges in a few iterations to the same pressure and load fraction."""
+    g, (z1, z2) = _random_pair()
+    fft = rfft_plan(g.shape)
+    r = (fft.forward(-z1), fft.forward(-z2))
+    model = _model(g, h_mean=0.35e-6)
+    warm = {}
+    cold = model.solve(r, r, 1.0e9, 5e-5, warm=warm)
+    assert 0.0 < cold.phi < 1.0 and set(warm) >= {0.25, "root", "phi"}
+    again = model.solve(r, r, 1.0e9, 5e-5, warm=warm)
+    assert again.iterations < 0.2 * cold.iterations
+    assert again.phi == pytest.approx(cold.phi, abs=1e-3)
+    assert np.abs(again.pressure - cold.pressure).max() < 1e-3 * cold.pressure.max()
+    assert again.pressure.mean() == pytest.approx(1.0e9, rel=1e-12)
+    # a slightly changed surface (a sub-block's wear) still converges to its own solution
+    worn = (fft.forward(-0.98 * z1), r[1])
+    fresh = model.solve(worn, r, 1.0e9, 5e-5)
+    warmed = model.solve(worn, r, 1.0e9, 5e-5, warm=warm)
+    assert warmed.iterations < fresh.iterations
+    assert warmed.phi == pytest.approx(fresh.phi, abs=1e-3)
+    assert np.abs(warmed.pressure - fresh.pressure).max() < 1e-2 * fresh.pressure.max()

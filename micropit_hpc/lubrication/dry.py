@@ -71,8 +71,7 @@ class ElasticHalfSpaces:
 
     def displacement(self, p: np.ndarray) -> np.ndarray:
         """Combined normal displacement u(p) of the two surfaces (zero mean) [m]."""
-        fft = self._fft
-        return fft.inverse(fft.forward(p) * self.compliance)
+        return self._fft.filtered(p, self.compliance)
 
     @cached_property
     def self_compliance(self) -> float:

@@ -148,6 +148,8 @@ class MixedLubrication:
         nabla = nabla * fbar
         nabla[0, 0] = 0.0
         self.nabla = nabla
+        self._factors: dict[tuple[int, float, float], tuple] = {}
+        self._factor_bytes = 0
 
     # ---- step 2: lubricated clearance -------------------------------------------------------
     def lubricated_factors(self, body: int, p_mean: float, t: float):
@@ -182,20 +184,45 @@ class MixedLubrication:
         h_a[0, 0] = h_t[0, 0] = D[0, 0] = 1.0
         return h_a, h_t, D
 
+    def cached_factors(self, body: int, p_mean: float, t: float):
+        """(h_a/r, h_t/r − h_a/r, decay) of :meth:`lubricated_factors`, kept for the next call
+        with the same (body, p̄, t): every load-cycle evaluation of a work item visits the
+        same time steps, and the factors depend on neither the surfaces nor the pits. Kept up
+        to :data:`FACTOR_CACHE_BYTES` in all; beyond it they are computed each time."""
+        key = (body, float(p_mean), float(t))
+        hit = self._factors.get(key)
+        if hit is not None:
+            return hit
+        h_a, h_t, D = self.lubricated_factors(body, p_mean, t)
+        hit = (h_a, h_t - h_a, D)
+        size = 3 * h_a.nbytes
+        if self._factor_bytes + size <= FACTOR_CACHE_BYTES:
+            self._factors[key] = hit
+            self._factor_bytes += size
+        return hit
+
     def lubricated_clearance(self, r_now, r_entry, p_mean: float, t: float) -> np.ndarray:
         """Half spectrum of the full-film clearance fluctuation Σ_i H_lub,i (mean mode 0)."""
         H = np.zeros(self.grid.spectral_shape, dtype=complex)
         for body in (1, 2):
-            h_a, h_t, D = self.lubricated_factors(body, p_mean, t)
-            H += h_a * r_now[body - 1] + (h_t - h_a) * r_entry[body - 1] * D
+            h_a, dh, D = self.cached_factors(body, p_mean, t)
+            H += h_a * r_now[body - 1] + dh * r_entry[body - 1] * D
         H[0, 0] = 0.0
         return H
 
     # ---- steps 3–5 --------------------------------------------------------------------------
     def solve(self, r_now, r_entry, p_mean: float, t: float,
-              p_init: np.ndarray | None = None) -> MixedSolution:
+              p_init: np.ndarray | None = None, warm: dict | None = None) -> MixedSolution:
         """Pressure and clearance at one step. ``r_now``/``r_entry``: half spectra of each
-        surface's rough clearance −z_i at time t and at the window's entry (t = 0)."""
+        surface's rough clearance −z_i at time t and at the window's entry (t = 0).
+
+        ``p_init`` warm-starts the dry solves (default: uniform pressure); each solve of the
+        root search starts from the last one's pressure. ``warm``: a dict the caller keeps for
+        this time step from one load-cycle evaluation to the next (the surfaces are then at
+        the same places, changed only by a sub-block's wear and pits): the solves at each
+        trial load fraction of :data:`PHI_SCAN` start from the pressure they had in the last
+        evaluation, the root search tries the last evaluation's root first (inside the
+        bracket) and starts its solves from that root's pressure, and the dict is updated."""
         prm, fft, g = self.params, self._fft, self.grid
         r_tot = r_now[0] + r_now[1]
         r_tot = r_tot.copy()
@@ -211,12 +238,17 @@ class MixedLubrication:
 
         def film(phi):
             """Mean clearance minus the flow balance's c_ρ h̄, and the dry solution at φ."""
+            start = state["p"]
+            if warm is not None:
+                start = warm.get(phi if phi in PHI_SCAN else "root", start)
             sol = solve_dry_contact(fft.inverse(clearance_spectrum(phi)), self.hs, phi * p_mean,
                                     p_lim=prm.p_lim, tol=prm.tol, max_iter=prm.max_iter,
-                                    p_init=state["p"])
+                                    p_init=start)
             state["iters"] += sol.iterations
             if sol.pressure.any():
                 state["p"] = sol.pressure
+                if warm is not None and phi in PHI_SCAN:
+                    warm[phi] = sol.pressure.astype(np.float32)
             c_rho = float(rheology.density_correction(phi * p_mean))
             return float(np.maximum(sol.gap, 0.0).mean()) - c_rho * h_bar, sol
 
@@ -240,8 +272,13 @@ class MixedLubrication:
             phi = 1.0
         else:
             phi = hi
+            guess = None if warm is None else warm.get("phi")
             for _ in range(60):  # regula falsi (Illinois) on the bracketed film balance
-                phi = hi - fhi * (hi - lo) / (fhi - flo)
+                if guess is not None and lo < guess < hi:   # the last evaluation's root first
+                    phi = guess
+                else:
+                    phi = hi - fhi * (hi - lo) / (fhi - flo)
+                guess = None
                 f, sol = film(phi)
                 if abs(f) <= prm.film_tol * h_bar or hi - lo < 1e-9:
                     break
@@ -251,6 +288,8 @@ class MixedLubrication:
                 else:
                     hi, fhi = phi, f
                     flo *= 0.5
+        if warm is not None and hi is not None:
+            warm["root"], warm["phi"] = sol.pressure.astype(np.float32), phi
         clearance = sol.gap
         H_final = fft.forward(clearance)
         if prm.combine == "max_amplitude":
@@ -271,6 +310,10 @@ class MixedLubrication:
         p = restore_mean(p, p_mean, self.params.p_lim)
         return MixedSolution(p, clearance, float(phi), int(iters), float(film_mean))
 
+
+#: Bytes of lubricated factors one model keeps (:meth:`MixedLubrication.cached_factors`): all
+#: steps of a 256² window with 40 steps (two bodies) fit.
+FACTOR_CACHE_BYTES = 256 * 2**20
 
 #: Load fractions tried, in order, to bracket the smallest root of the flow balance.
 PHI_SCAN = (0.25, 0.5, 0.75, 1.0)
