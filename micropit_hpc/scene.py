@@ -207,7 +207,7 @@ window and roughness patch are used at every position of a study.
 """, (
     Key("n", "nx", "int", "Grid points along rolling (5-smooth sizes such as 64, 128, 256 are "
         "fastest; any size works).", default=128, lo=8, hi=8192),
-    Key("ny", "ny", "int", "Grid points across rolling. Default: `n`.", default=None, lo=1,
+    Key("ny", "ny", "int", "Grid points across rolling. Default: `n`.", default=None, lo=2,
         hi=8192),
     Key("length_x_um", "lx", "float", "Window length along rolling. Default: 2 b_ref, twice "
         "the Hertz semi-width at the pitch point (a gear) or of the contact (a disc rig).",

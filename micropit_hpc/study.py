@@ -70,6 +70,20 @@ def scaled_scene(scene: Scene, scale: float) -> Scene:
                    body2=replace(scene.body2, Rq=scene.body2.Rq * scale))
 
 
+def check_life_kinematics(scene: Scene, c) -> None:
+    """Refuse a position whose surface is at rest (pure sliding): it never completes a load
+    cycle, so its cycles cannot be counted."""
+    if min(c.u1, c.u2) <= 0.0:
+        pos = c.position
+        key, value = ("disc.slide_roll", scene.disc.slide_roll[pos - 1]) \
+            if scene.disc is not None else (f"position {pos}", c.S)
+        raise SceneError(
+            scene.source, f"a surface at rest (u1 = {c.u1:.3g}, u2 = {c.u2:.3g} m/s, "
+            "pure sliding) never completes a load cycle, so a life simulation cannot "
+            "count its cycles (`micropit contact` still works)", key=key, value=value,
+            allowed="|S| < 2 for `micropit run`")
+
+
 class ItemRun:
     """The cycle, parameters and evolving state of one work item."""
 
@@ -78,6 +92,7 @@ class ItemRun:
         self.item = item
         sc = scaled_scene(scene, item.scale)
         study = contact_study(sc) if (base is None or item.scale != 1.0) else base
+        check_life_kinematics(scene, study.conditions[item.position - 1])
         b_ref = reference_half_width(study)
         grid = window_grid(sc, b_ref)
         # the patch is made at scale 1 and scaled, so a measured map needs no R_q change
@@ -138,15 +153,7 @@ class Study:
                                     f"scene has positions 1 to {n_pos})")
         self.items = work_items(scene, n_pos, positions)
         for pos in sorted({it.position for it in self.items}):
-            c = self.base.conditions[pos - 1]
-            if min(c.u1, c.u2) <= 0.0:
-                key, value = ("disc.slide_roll", scene.disc.slide_roll[pos - 1]) \
-                    if scene.disc is not None else (f"position {pos}", c.S)
-                raise SceneError(
-                    scene.source, f"a surface at rest (u1 = {c.u1:.3g}, u2 = {c.u2:.3g} m/s, "
-                    "pure sliding) never completes a load cycle, so a life simulation cannot "
-                    "count its cycles (`micropit contact` still works)", key=key, value=value,
-                    allowed="|S| < 2 for `micropit run`")
+            check_life_kinematics(scene, self.base.conditions[pos - 1])
         self.group = split_groups(comm, ranks_per_item)
         self.assignment = assign_items(len(self.items), self.group.count)  # round robin
         self.mine = [self.items[i] for i in self.group.items(self.assignment)]

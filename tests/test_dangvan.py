@@ -128,3 +128,14 @@ def test_woehler_line_numbers_of_appendix_A4():
     assert w.damage(np.array([-1e6, 0.0])).tolist() == [0.0, 0.0]
     with pytest.raises(ValueError, match="must be negative"):
         WoehlerLine(A=40e6)
+
+
+def test_enclosing_ball_of_a_tiny_path_far_from_the_origin():
+    """A nearly static path (spread 1e-5 at distance 1, a gear position at the end of the
+    path of contact) converges to its exact ball instead of stalling on cancellation."""
+    base = np.array([1.0, 1.07, 0.0, 0.0, 0.0])[:, None]
+    step = 1e-5 * np.array([0.6, 0.8, 0.0, 0.0, 0.0])[:, None]
+    pts = (base + step * np.arange(4.0))[:, :, None]          # a segment of length 3e-5
+    centre, radius, _ = enclosing_ball(pts)
+    assert radius[0] == pytest.approx(1.5e-5, rel=1e-6)
+    assert np.allclose(centre[:, 0], (base + 1.5 * step)[:, 0], rtol=0, atol=1e-15)

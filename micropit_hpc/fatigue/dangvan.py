@@ -170,6 +170,8 @@ def enclosing_ball(points: np.ndarray, tol: float = 1e-12, max_iter: int = 2000,
     d, m, n = p.shape
     if m < 1:
         raise ValueError("enclosing_ball: each set needs at least one point")
+    ref = p.mean(axis=1)        # work about each set's mean: no cancellation on sets whose
+    p = p - ref[:, None, :]     # spread is tiny against their distance from the origin
     idx = np.arange(n)
     # initial pair (Yildirim): beta farthest from p_0, gamma farthest from beta
     beta = np.argmax(_sq_dist(p, p[:, 0, :]), axis=0)
@@ -234,7 +236,7 @@ def enclosing_ball(points: np.ndarray, tol: float = 1e-12, max_iter: int = 2000,
                 sub = sub[blocked]
                 if sub.size == 0:
                     break
-    return centre, np.sqrt(radius2), iters
+    return centre + ref, np.sqrt(radius2), iters
 
 
 def mesoscopic_shear(v: np.ndarray) -> np.ndarray:

@@ -178,9 +178,9 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     plastic = p >= p_lim
     used, error, settled = 0, math.inf, False
     N = g0.size
-    for _ in range(200):
-        if used >= max_iter:
-            break
+    updates = 0
+    while used < max_iter:
+        updates += 1
         n_pl = np.count_nonzero(plastic)
         P_el = P - p_lim * n_pl / N if n_pl else P
         if P_el <= 0.0:   # the cap alone would carry more than the load: start the set anew
@@ -207,8 +207,10 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         p = p_total
         np.minimum(p, p_lim, out=p)
     if not settled:
+        why = (f"relative residual {error:.3g} > tolerance {tol:.3g}" if error > tol else
+               f"the set of yielded points still changed after {updates} updates")
         raise ContactError(
-            f"dry contact did not converge: relative residual {error:.3g} > tolerance {tol:.3g} "
-            f"after {used} iterations (raise lubrication.max_iterations or the tolerance; "
+            f"dry contact did not converge: {why} after {used} iterations (raise "
+            "lubrication.max_iterations or the tolerance; "
             "check that the roughness is resolved by the grid)")
     return DryContact(p, g, float(np.mean(g0 + hs.displacement(p) - g)), used, error)
