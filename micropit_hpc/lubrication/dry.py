@@ -208,7 +208,7 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         np.minimum(p, p_lim, out=p)
     if not settled:
         why = (f"relative residual {error:.3g} > tolerance {tol:.3g}" if error > tol else
-               f"the set of yielded points still changed after {updates} updates")
+               f"the set of yielded points still changed at update {updates}")
         raise ContactError(
             f"dry contact did not converge: {why} after {used} iterations (raise "
             "lubrication.max_iterations or the tolerance; "
