@@ -39,10 +39,11 @@ from pathlib import Path
 
 from micropit_hpc import source_commit
 from micropit_hpc.conditions import contact_study
-from micropit_hpc.cycle import PositionCycle, body_surface, reference_half_width, window_grid
+from micropit_hpc.cycle import body_surface, reference_half_width, window_grid
 from micropit_hpc.errors import MicropitError
-from micropit_hpc.life import LifeParams, evaluate_cycle, initial_state, run_block
+from micropit_hpc.life import evaluate_cycle
 from micropit_hpc.scene import scene_from_dict
+from micropit_hpc.study import ItemRun, WorkItem
 
 ROOT = Path(__file__).resolve().parent.parent
 REF_N = 256
@@ -109,16 +110,17 @@ def _surfaces(scene, study, reference):
     return tuple(s.resampled(grid) for s in reference)
 
 
-def _cycle(case, scene, study, reference):
-    cyc = PositionCycle(study, case.position, surfaces=_surfaces(scene, study, reference))
-    return cyc, LifeParams.from_scene(scene, K_LUB), initial_state(cyc)
+def _item(case, scene, study, reference) -> ItemRun:
+    return ItemRun(scene, WorkItem(0, case.position, K_LUB, 1.0, 0), base=study,
+                   surfaces=_surfaces(scene, study, reference))
 
 
 def cycle_row(case, scene, study, reference) -> dict:
     """One load-cycle evaluation, reported as 1 M cycles at its rates (module docstring)."""
     t0 = time.perf_counter()
-    cyc, params, state = _cycle(case, scene, study, reference)
-    res = evaluate_cycle(cyc, state, params)
+    run = _item(case, scene, study, reference)
+    params = run.params
+    res = evaluate_cycle(run.cycle, run.state, params)
     wall = time.perf_counter() - t0
     n = 1e6
     ap = max(100.0 * float(((n * b.damage_rate) >= 1.0).any(axis=0).mean()) for b in res.bodies)
@@ -131,10 +133,10 @@ def cycle_row(case, scene, study, reference) -> dict:
 def life_row(case, scene, study, reference) -> dict:
     """1 M cycles of the life loop in blocks of the scene's ΔN."""
     t0 = time.perf_counter()
-    cyc, params, state = _cycle(case, scene, study, reference)
+    run = _item(case, scene, study, reference)
     subs, phi = 0, 0.0
-    while state.cycles < 1e6 * (1 - 1e-9):
-        rec = run_block(cyc, state, params, min(params.block, 1e6 - state.cycles))
+    while run.state.cycles < 1e6 * (1 - 1e-9):
+        rec = run.run_block(min(run.params.block, 1e6 - run.state.cycles))
         subs += rec.sub_blocks
         phi = rec.phi
     wall = time.perf_counter() - t0

@@ -31,6 +31,7 @@ from micropit_hpc.life import (
     run_block,
 )
 from micropit_hpc.scene import Scene
+from micropit_hpc.surfaces import Topography
 
 __all__ = ["SUMMARY_COLUMNS", "ItemRun", "Study", "WorkItem", "summary_rows", "work_items"]
 
@@ -85,10 +86,12 @@ def check_life_kinematics(scene: Scene, c) -> None:
 
 
 class ItemRun:
-    """The cycle, parameters and evolving state of one work item."""
+    """The cycle, parameters and evolving state of one work item. ``surfaces``: both bodies'
+    patches on the window grid at scale 1 (default: the scene's patch ``item.patch``)."""
 
     def __init__(self, scene: Scene, item: WorkItem, base: ContactStudy | None = None,
-                 log: Callable[[str], None] | None = None, comm=None):
+                 log: Callable[[str], None] | None = None, comm=None,
+                 surfaces: tuple[Topography, Topography] | None = None):
         self.item = item
         sc = scaled_scene(scene, item.scale)
         study = contact_study(sc) if (base is None or item.scale != 1.0) else base
@@ -96,7 +99,8 @@ class ItemRun:
         b_ref = reference_half_width(study)
         grid = window_grid(sc, b_ref)
         # the patch is made at scale 1 and scaled, so a measured map needs no R_q change
-        surfaces = tuple(body_surface(scene, i, grid, item.patch) for i in (1, 2))
+        if surfaces is None:
+            surfaces = tuple(body_surface(scene, i, grid, item.patch) for i in (1, 2))
         if item.scale != 1.0:
             surfaces = tuple(s.scaled_to_rq(s.rq * item.scale) if s.rq > 0 else s
                              for s in surfaces)
