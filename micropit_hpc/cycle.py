@@ -4,9 +4,11 @@ A load cycle is one passage of the surfaces through the contact. The window (a p
 of L_x × L_y, default 2 b_ref square) travels with ū from the inlet x_c = −b to the outlet
 x_c = +b in m steps: t_j = (j + ½) t_f/m, t_f = 2b/ū, x_c(t_j) = −b + ū t_j, mean pressure
 p̄_j = p_H(x_c(t_j)); surface i is shifted by (u_i − ū) t_j relative to the window (exact
-Fourier shift). This module builds the window and surfaces of a position and solves one time
-step: contact (:mod:`micropit_hpc.lubrication`) and stresses (:mod:`micropit_hpc.mechanics`)
-in each body's material frame.
+Fourier shift of the smooth heights). This module builds the window and surfaces of a
+position and solves one time step: contact (:mod:`micropit_hpc.lubrication`) and stresses
+(:mod:`micropit_hpc.mechanics`) in each body's material frame, where the pressure and
+traction arrive by linear interpolation (no ringing) and the macro Hertz field is the one at
+the window centre, so that σ_zz(0) = −p and σ_xz(0) = −q hold exactly (docs/contact.md).
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ from micropit_hpc.mechanics.hertz_field import EllipticalContactField, line_cont
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.scene import Body, Scene, check_mixed_inputs
-from micropit_hpc.spectral import Grid, fourier_shift, rfft_plan
+from micropit_hpc.spectral import Grid, fourier_shift, rfft_plan, to_material_frame
 from micropit_hpc.surfaces import (
     Topography,
     TopographyError,
@@ -182,7 +184,6 @@ class PositionCycle:
         self.slab = Slab(SerialComm() if comm is None else comm, g, self.z.size)
         self._micro: dict[int, HalfSpaceStress] = {}
         self._macro_ellipse: dict[int, EllipticalContactField] = {}
-        self._traction_spectra: tuple = (None, None, None)
 
     def set_surfaces(self, surfaces: tuple[Topography, Topography],
                      pits: tuple[np.ndarray, np.ndarray] | None = None) -> None:
@@ -304,36 +305,52 @@ class PositionCycle:
         return p, clearance
 
     # ---- stresses ----------------------------------------------------------------------------
+    def material_tractions(self, fields: StepFields, body: int) -> tuple[np.ndarray, np.ndarray]:
+        """Pressure and friction traction of ``fields`` in the material frame of ``body``:
+        F_i(X) = F(X + (u_i − ū) t) by periodic linear interpolation along x
+        (:func:`~micropit_hpc.spectral.to_material_frame`; docs/contact.md, "The stress
+        history"). The pressure stays in [0, p_lim] and keeps its
+        mean p̄, the traction its mean μ̄ p̄."""
+        s = self.slip(body, fields.t)
+        q = fields.traction1 if body == 1 else fields.traction2
+        dx = self.grid.dx
+        return to_material_frame(fields.pressure, s, dx), to_material_frame(q, s, dx)
+
+    def macro_stress(self, fields: StepFields, body: int) -> np.ndarray:
+        """The macro Hertz field with the mean traction μ̄ p_H at the window centre x_c(t_j)
+        (and y = 0), shape (6, N_z, 1, 1): the same at every point of the window
+        (docs/contact.md, "The stress history"). The micro contact is solved about the uniform mean
+        pressure p̄_j = p_H(x_c), so this is the field whose surface values, σ_zz(0) = −p̄_j and
+        σ_xz(0) = −μ̄ p̄_j, complete the micro field's to the contact's own p and q."""
+        c = self.cond
+        q = fields.traction1 if body == 1 else fields.traction2
+        p_sum = float(fields.pressure.sum())
+        mu_signed = float(q.sum()) / p_sum if p_sum > 0 else 0.0
+        z = self.z[:, None, None]
+        if c.geometry == "line":
+            nu = (self.scene.body1 if body == 1 else self.scene.body2).nu
+            return line_contact_stress(fields.x_c, z, c.b, c.p0, mu_signed, nu)
+        return self._ellipse(body).stress(fields.x_c, 0.0, z, mu_signed)
+
     def stresses(self, fields: StepFields, body: int) -> np.ndarray:
         """σ (Voigt xx, yy, zz, yz, xz, xy; shape (6, N_z, nx, ny), on a slab of several ranks
-        only its rows: (6, N_z, len(slab.rows), ny)) in the material frame of
-        ``body`` at the step of ``fields`` (MODEL.md §4.2): the micro field of the pressure and
-        traction fluctuations (Fourier kernels, App. A.1) plus the macro Hertz field with the
-        mean traction μ̄ p_H at each material point's actual position x_c + x + (u_i − ū)t."""
-        g, c = self.grid, self.cond
+        only its rows: (6, N_z, len(slab.rows), ny)) in the material frame of ``body`` at the
+        step of ``fields`` (docs/contact.md, "The stress history"): the micro field (Fourier kernels, App. A.1) of the
+        pressure and traction moved into the material frame (:meth:`material_tractions`), less
+        their means, plus the macro field at the window centre (:meth:`macro_stress`). At
+        z = 0: σ_zz = −p and σ_xz = −q of the material-frame maps, to round-off."""
+        g = self.grid
         b_body = self.scene.body1 if body == 1 else self.scene.body2
         slab = self.slab
         micro = self._micro.get(body)
         if micro is None:
             micro = self._micro[body] = HalfSpaceStress(g, self.z, b_body.nu, slab)
-        q = fields.traction1 if body == 1 else fields.traction2
-        shift = -self.slip(body, fields.t)          # window frame -> material frame
-        if self._traction_spectra[0] is not fields:   # both bodies share p̂ and ±q̂
-            rows = slab.rows
-            self._traction_spectra = (fields, slab.forward(-fields.pressure[rows]),
-                                      slab.forward(-fields.traction1[rows]))
-        _, P_hat, T1_hat = self._traction_spectra
-        T_hat = T1_hat if body == 1 else -T1_hat
-        sigma = micro.stresses(fourier_shift(P_hat, g, shift, cols=slab.cols),
-                               fourier_shift(T_hat, g, shift, cols=slab.cols))
-        mu_signed = float(q.sum() / fields.pressure.sum()) if fields.pressure.any() else 0.0
-        x = (fields.x_c + g.x[slab.rows] - shift)[None, :, None]
-        z = self.z[:, None, None]
-        if c.geometry == "line":
-            macro = line_contact_stress(x, z, c.b, c.p0, mu_signed, b_body.nu)
-            sigma += macro
-        else:
-            sigma += self._ellipse(body).stress(x, g.y[None, None, :], z, mu_signed)
+        p, q = self.material_tractions(fields, body)
+        rows = slab.rows
+        P_hat = slab.forward(-p[rows])
+        T_hat = slab.forward(-q[rows])
+        sigma = micro.stresses(P_hat, T_hat)
+        sigma += self.macro_stress(fields, body)
         return sigma
 
     def _ellipse(self, body: int) -> EllipticalContactField:

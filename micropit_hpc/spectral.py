@@ -34,7 +34,7 @@ except ImportError:  # pragma: no cover
     pyfftw = None
 
 __all__ = ["Grid", "RealFFT2", "fourier_shift", "have_pyfftw", "is_5smooth", "next_5smooth",
-           "rfft_plan"]
+           "rfft_plan", "to_material_frame"]
 
 
 def have_pyfftw() -> bool:
@@ -242,3 +242,23 @@ def fourier_shift(spectrum: np.ndarray, grid: Grid, sx: float, sy: float = 0.0,
         py[:, -1] = py[:, -1].real
     phase = px * (py if cols is None else py[:, cols])
     return spectrum * phase
+
+
+def to_material_frame(field: np.ndarray, shift: float, dx: float) -> np.ndarray:
+    """F(X + shift) on the periodic grid, by linear interpolation along x (axis 0): a
+    window-frame field seen at material point X of a body that has slipped by ``shift``.
+
+    Conserves the sum of ``field`` exactly (each value is split between two neighbours with
+    weights adding to one) and keeps every value within the field's own bounds: a pressure
+    in [0, p_lim] stays in [0, p_lim]. This is why pressures, tractions and wear go into the
+    material frame by this interpolation and not by :func:`fourier_shift`, whose exact
+    band-limited shift of a capped plateau or a contact edge rings (negative pressures and
+    overshoots above p_lim; docs/contact.md, "The stress history").
+    """
+    s = shift / dx
+    q = math.floor(s)
+    f = s - q
+    a = np.roll(field, -q, axis=0)
+    if f == 0.0:
+        return a
+    return (1.0 - f) * a + f * np.roll(a, -1, axis=0)

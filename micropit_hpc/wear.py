@@ -47,25 +47,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from micropit_hpc.spectral import to_material_frame
+
 __all__ = ["WEAR_INTEGRATIONS", "WearRate", "archard_wear", "to_material_frame"]
 
 #: How the wear of a sub-block is integrated (module docstring).
 WEAR_INTEGRATIONS = ("relaxed", "explicit")
-
-
-def to_material_frame(field: np.ndarray, shift: float, dx: float) -> np.ndarray:
-    """F(X + shift) on the periodic grid, by linear interpolation along x (axis 0).
-
-    Conserves the sum of ``field`` exactly (each value is split between two neighbours with
-    weights adding to one) and keeps non-negative fields non-negative.
-    """
-    s = shift / dx
-    q = math.floor(s)
-    f = s - q
-    a = np.roll(field, -q, axis=0)
-    if f == 0.0:
-        return a
-    return (1.0 - f) * a + f * np.roll(a, -1, axis=0)
 
 
 @dataclass(frozen=True)
