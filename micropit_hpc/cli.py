@@ -95,6 +95,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
     from micropit_hpc.parallel.petsc import init_petsc, option, options_left_warning, stage
     from micropit_hpc.progress import NullProgress, Progress
+    from micropit_hpc.regime import block_warning
     from micropit_hpc.runner import RunOptions, run_study
     from micropit_hpc.scene import load_scene
     from micropit_hpc.study import SUMMARY_COLUMNS, summary_rows
@@ -126,9 +127,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
     t0 = time.perf_counter()
     log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item, "
         f"blocks of {scene.life.block / 1e6:g} M cycles to {scene.life.cycles / 1e6:g} M")
-    progress = [None]
+    progress, the_study = [None], [None]
 
-    def on_start(blocks: int, start: int) -> None:
+    def on_start(blocks: int, start: int, study) -> None:
+        the_study[0] = study
         progress[0] = (Progress(blocks, "blocks", initial=start) if rank0
                        else NullProgress(blocks, "blocks"))
 
@@ -157,6 +159,11 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     f"= {limit:g}; the split stopped at life.max_splits = {life.max_splits}. "
                     f"Raise max_splits (or lower life.block_M) {why} (docs/life.md)")
 
+        st = the_study[0]
+        line = block_warning(k, {iid: r[-1] for iid, r in records.items() if r}, st.z_max,
+                             not st.window_problems)
+        if line:
+            log(line)
         ap = max((r[-1].Ap[0] for r in records.values() if r), default=0.0)
         progress[0].update(k, f"{k * len(records)} item-blocks of {blocks * len(records)}, "
                               f"max A_p body 1 {ap:.3g} %")
@@ -171,7 +178,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
             rows = []
             for it in study.items:
                 run_c = study.base.conditions[it.position - 1]
-                rows += summary_rows(it, run_c, outcome.records[it.id], study.item_lambda(it))
+                rows += summary_rows(it, run_c, outcome.records[it.id], study.item_lambda(it),
+                                     study.z_max, not study.window_problems)
             meta = {"ranks": comm.size, "ranks_per_item": args.ranks_per_item,
                     "wall_s": time.perf_counter() - t0, "status": outcome.status,
                     "blocks_done": outcome.blocks_done, "restarted_from_block":

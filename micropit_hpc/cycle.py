@@ -335,9 +335,10 @@ class PositionCycle:
     def stresses(self, fields: StepFields, body: int) -> np.ndarray:
         """σ (Voigt xx, yy, zz, yz, xz, xy; shape (6, N_z, nx, ny), on a slab of several ranks
         only its rows: (6, N_z, len(slab.rows), ny)) in the material frame of ``body`` at the
-        step of ``fields`` (docs/contact.md, "The stress history"): the micro field (Fourier kernels, App. A.1) of the
-        pressure and traction moved into the material frame (:meth:`material_tractions`), less
-        their means, plus the macro field at the window centre (:meth:`macro_stress`). At
+        step of ``fields`` (docs/contact.md, "The stress history"): the micro field (Fourier
+        kernels, App. A.1) of the pressure and traction moved into the material frame
+        (:meth:`material_tractions`), less their means, plus the macro field at the window
+        centre (:meth:`macro_stress`). At
         z = 0: σ_zz = −p and σ_xz = −q of the material-frame maps, to round-off."""
         g = self.grid
         b_body = self.scene.body1 if body == 1 else self.scene.body2

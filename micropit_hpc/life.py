@@ -30,6 +30,14 @@ is 3.8 %, with the limit honoured (25 sub-blocks) 2.9 %, and with half the limit
 coarse steps also leave a texture that shortens λ_c and runs A_p away after a few M cycles
 (docs/life.md, "Resolving the running-in").
 
+**Time integration [decision]** (``integration``): ``"adaptive"`` (default) is the split
+above; ``"paper"`` is the paper's own scheme (Morales-Espejel, Rycerz & Kadiric 2018 §2.1):
+fixed blocks of ΔN, one load-cycle evaluation per block on the block's starting surfaces,
+damage and wear both applied over the whole block, the damage columns moved up by the worn
+depth, then the pit check. In that scheme the wear–fatigue competition depends on ΔN: a point
+whose life is shorter than the time wear needs to reach it still escapes if the block's wear
+removes it before the check (docs/life.md, "Two time integrations").
+
 **Wear integration [choice]** (``wear_integration``, :mod:`micropit_hpc.wear`): the wear of a
 sub-block is ``relaxed`` (default: the stiff solid-contact part integrated as the linearised
 pressure relief it causes) or ``explicit`` (n Δh_i, MODEL.md §4.6 as written). The split's
@@ -55,12 +63,14 @@ from micropit_hpc.fatigue.sn import WoehlerLine
 from micropit_hpc.parallel.petsc import event
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.pits import detach, shift_columns
+from micropit_hpc.scene import INTEGRATIONS
 from micropit_hpc.surfaces import Topography
 from micropit_hpc.wear import WearRate, archard_wear
 
-__all__ = ["BlockRecord", "BodyCycle", "BodyState", "CycleResult", "LifeParams", "LifeState",
-           "apply_cycles", "evaluate_cycle", "initial_state", "micro_cycles",
-           "rainflow_steps", "run_block", "shape_change", "sub_block_cycles"]
+__all__ = ["INTEGRATIONS", "BlockRecord", "BodyCycle", "BodyState", "BodyStep", "CycleResult",
+           "LifeParams", "LifeState", "apply_cycles", "deep_damage_ratio", "evaluate_cycle",
+           "initial_state", "micro_cycles", "rainflow_steps", "rms_slope", "run_block",
+           "shape_change", "sub_block_cycles"]
 
 
 @dataclass(frozen=True)
@@ -81,18 +91,21 @@ class LifeParams:
     pit_contact: str = "unloaded"
     wear_integration: str = "relaxed"
     peak_spacing_min_cells: float = 4.0
+    integration: str = "adaptive"
 
     @classmethod
     def from_scene(cls, scene, k_lub: float) -> LifeParams:
         f, life = scene.fatigue, scene.life
-        return cls(k_lub=k_lub, f_w=scene.wear.f_w, woehler=WoehlerLine(f.A, f.B),
+        return cls(k_lub=k_lub, f_w=scene.wear.f_w,
+                   woehler=WoehlerLine(f.A, f.B, f.n_min, f.low_cycle),
                    alpha=ALPHA_DV if f.alpha is None else f.alpha, counting=f.counting,
                    macro_samples=f.macro_samples, block=life.block,
                    max_wear_fraction=life.max_wear_fraction,
                    max_damage_step=life.max_damage_step, max_pit_step=life.max_pit_step,
                    max_splits=life.max_splits,
                    pit_contact=life.pit_contact, wear_integration=life.wear_integration,
-                   peak_spacing_min_cells=f.peak_spacing_min_cells)
+                   peak_spacing_min_cells=f.peak_spacing_min_cells,
+                   integration=life.integration)
 
 
 @dataclass
@@ -136,7 +149,9 @@ class LifeState:
 class BodyCycle:
     """One load cycle's effect on one body: damage per cycle (N_z, n_x, n_y), wear per cycle
     (n_x, n_y) by regime, the rough and smooth Dang Van stresses [Pa], the micro-cycles per
-    load cycle n_μ and the counterface's peak spacing λ_c [m]."""
+    load cycle n_μ and the counterface's peak spacing λ_c [m]. ``damage_low``: the part of
+    the damage per cycle from below the S–N line's data, N < n_min
+    (:meth:`~micropit_hpc.fatigue.sn.WoehlerLine.low_damage`; None: not known, taken as 0)."""
 
     damage_rate: np.ndarray
     wear: WearRate
@@ -144,19 +159,22 @@ class BodyCycle:
     tau_smooth: np.ndarray
     n_micro: float
     lam_c: float
+    damage_low: np.ndarray | None = None
 
 
 @dataclass(frozen=True)
 class CycleResult:
     """A load-cycle evaluation: both bodies, the load fraction carried by solid contact φ
     (pressure-weighted over the steps), the solid-contact area fraction, the steps used and
-    the wall time."""
+    the wall time. ``plastic_share``: the share of the contact area (p > 0, all steps
+    together) where the pressure is at the cap p_lim, i.e. where the material yields."""
 
     bodies: tuple[BodyCycle, BodyCycle]
     phi: float
     solid_fraction: float
     steps: int
     wall_s: float
+    plastic_share: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -180,6 +198,26 @@ class BlockRecord:
     n_micro: tuple[float, float]
     wear_step: float = 0.0
     pit_step: float = 0.0
+    low_cycle_damage: tuple[float, float] = (0.0, 0.0)
+    low_cycle_pits: tuple[float, float] = (0.0, 0.0)
+    plastic_share: float = 0.0
+    deep_damage: tuple[float, float] = (0.0, 0.0)
+    slope: tuple[float, float] = (0.0, 0.0)
+    pit_depth_max: tuple[float, float] = (0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class BodyStep:
+    """What :func:`apply_cycles` did to one body: the shape change its wear made
+    (:func:`shape_change`), the columns it newly pitted and how many of those came from
+    N < n_min (on the whole window), and the damage it added in all and from N < n_min (on
+    this rank's rows)."""
+
+    shape_change: float
+    new_pits: int
+    new_low_pits: int
+    damage_added: float
+    low_damage_added: float
 
 
 def initial_state(cycle: PositionCycle) -> LifeState:
@@ -267,6 +305,10 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams,
     weights = np.array([f.p_mean for f in fields])
     phi = float((weights * [f.phi for f in fields]).sum() / weights.sum()) if weights.any() else 0.0
     solid = float(np.mean([f.solid.mean() for f in fields]))
+    at_lim = (1.0 - 1e-9) * cycle.p_lim
+    in_contact = sum(int(np.count_nonzero(f.pressure > 0.0)) for f in fields)
+    plastic = (sum(int(np.count_nonzero(f.pressure >= at_lim)) for f in fields) / in_contact
+               if in_contact else 0.0)
     c = cycle.cond
     out = []
     rainflow = params.counting == "rainflow"
@@ -284,14 +326,16 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams,
         tau_smooth = macro.tau_dv                                        # (Nz, 1, ny')
         lam_c = lam[2 - body]                                            # the counterface's
         n_mu = micro_cycles(cycle, body, lam_c)
+        sn = params.woehler
         with event("damage_rate"):
             if rainflow:
                 m = dv.series.shape[0]
-                rough = rainflow_damage(dv.series.reshape(m, -1), params.woehler.damage)
-                rate = rough.reshape(dv.tau_dv.shape)
+                series = dv.series.reshape(m, -1)
+                rate = rainflow_damage(series, sn.damage).reshape(dv.tau_dv.shape)
+                low = rainflow_damage(series, sn.low_damage).reshape(dv.tau_dv.shape)
             else:
-                rate = (params.woehler.damage(tau_smooth)
-                        + n_mu * params.woehler.damage(dv.tau_dv))
+                rate = sn.damage(tau_smooth) + n_mu * sn.damage(dv.tau_dv)
+                low = sn.low_damage(tau_smooth) + n_mu * sn.low_damage(dv.tau_dv)
         own, other = ((cycle.scene.body1, cycle.scene.body2) if body == 1
                       else (cycle.scene.body2, cycle.scene.body1))
         with event("wear_rate"):
@@ -300,24 +344,32 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams,
                                 own.hardness, other.hardness, params.k_lub, params.f_w,
                                 cycle.half_spaces.self_compliance)
         out.append(BodyCycle(damage_rate=rate, wear=wear, tau_rough=dv.tau_dv,
-                             tau_smooth=tau_smooth, n_micro=n_mu, lam_c=lam_c))
+                             tau_smooth=tau_smooth, n_micro=n_mu, lam_c=lam_c,
+                             damage_low=np.broadcast_to(low, rate.shape)))
     return CycleResult(bodies=tuple(out), phi=phi, solid_fraction=solid, steps=cycle.steps,
-                       wall_s=time.perf_counter() - t0)
+                       wall_s=time.perf_counter() - t0, plastic_share=plastic)
 
 
 def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
-                 slab: Slab | None = None, wear_integration: str = "relaxed") -> list[float]:
+                 slab: Slab | None = None, wear_integration: str = "relaxed") -> list[BodyStep]:
     """Advance both bodies by ``n`` load cycles at the rates of ``result`` (in place):
     Miner's rule, wear (heights down, damage columns up), then micropits (MODEL.md §4.4–§4.6).
     ``slab``: the rows of the damage this rank holds (default: the whole window); the pits
     found on each slab are shared so that every rank keeps the whole surface. Collective.
-    Returns the shape change of each body's surface (:func:`shape_change`) the wear made."""
-    worn = []
+    Returns what it did to each body (:class:`BodyStep`)."""
+    done = []
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
         rows = slice(None) if slab is None else slab.rows
-        bs.damage += n * bc.damage_rate
+        added = n * bc.damage_rate
+        low = None if bc.damage_low is None else n * bc.damage_low
+        # the point of each column that fails first decides where its pit's damage came from
+        top = np.argmax(bs.damage + added, axis=0)[None]
+        low_col = (np.zeros(top.shape[1:], bool) if low is None else
+                   2.0 * np.take_along_axis(low, top, 0)[0]
+                   > np.take_along_axis(bs.damage + added, top, 0)[0])
+        bs.damage += added
         dh = bc.wear.depth(n, wear_integration)
-        worn.append(shape_change(dh, ~bs.pitted))
+        worn = shape_change(dh, ~bs.pitted)
         if dh.any():
             bs.heights -= dh
             bs.wear += dh
@@ -326,12 +378,16 @@ def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
         bs.damage = damage
         if slab is not None:
             depth, new = slab.allgather_rows(depth), slab.allgather_rows(new)
+            low_col = slab.allgather_rows(low_col)
+        fresh = new & ~bs.pitted
         if new.any():
             bs.heights -= depth
             bs.pit_depth += depth
             bs.pitted |= new
+        done.append(BodyStep(worn, int(fresh.sum()), int((fresh & low_col).sum()),
+                             float(added.sum()), 0.0 if low is None else float(low.sum())))
     state.cycles += n
-    return worn
+    return done
 
 
 def _damage_rise(state: LifeState, result: CycleResult, n: float,
@@ -392,7 +448,10 @@ def _wear_limited(wear: WearRate, limit: float, n: float, integration: str,
 
 def sub_block_cycles(state: LifeState, result: CycleResult, left: float,
                      params: LifeParams, slab: Slab | None = None) -> float:
-    """Cycles of the next sub-block: the adaptive split (module docstring)."""
+    """Cycles of the next sub-block: the adaptive split (module docstring); the whole of
+    ``left`` in the paper's scheme (``integration = "paper"``)."""
+    if params.integration == "paper":
+        return left
     floor = params.block / params.max_splits
     n = left
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
@@ -408,39 +467,70 @@ def sub_block_cycles(state: LifeState, result: CycleResult, left: float,
     return min(n, left)
 
 
+def deep_damage_ratio(rate: np.ndarray) -> float:
+    """The largest ratio, over the columns, of the deepest layer's damage rate to the column's
+    largest (0 where a column has none): how much damage the layers leave below them."""
+    top = rate.max(axis=0)
+    ratio = np.divide(rate[-1], top, out=np.zeros_like(top), where=top > 0)
+    return float(ratio.max()) if ratio.size else 0.0
+
+
+def rms_slope(heights: np.ndarray, dx: float) -> float:
+    """Δq: the RMS slope along x (axis 0) of a periodic height map, by forward differences
+    (ISO 4287's Δq of the x-profiles, on the grid)."""
+    return float(np.sqrt(np.mean(((np.roll(heights, -1, axis=0) - heights) / dx) ** 2)))
+
+
 def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
               cycles: float | None = None) -> BlockRecord:
-    """One block of ΔN load cycles (or ``cycles``), split adaptively; returns its record.
-    Collective over the cycle's group (every rank returns the same record)."""
+    """One block of ΔN load cycles (or ``cycles``): split adaptively
+    (``integration = "adaptive"``) or in one step on the block's starting surfaces (the
+    paper's scheme, ``"paper"``); returns its record. Collective over the cycle's group
+    (every rank returns the same record)."""
     t0 = time.perf_counter()
+    slab = cycle.slab
     left = params.block if cycles is None else cycles
-    subs, phi_acc, n_done, wear_step, pit_step = 0, 0.0, 0.0, 0.0, 0.0
+    subs, phi_acc, plastic_acc, n_done, wear_step, pit_step = 0, 0.0, 0.0, 0.0, 0.0, 0.0
+    new_pits, low_pits = [0, 0], [0, 0]
+    added, low_added, deep = [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]
     result, warm = None, {}
     while left > 0:
         result = evaluate_cycle(cycle, state, params, warm)
-        n = sub_block_cycles(state, result, left, params, cycle.slab)
-        before = [bs.pitted.copy() for bs in state.bodies]
+        n = sub_block_cycles(state, result, left, params, slab)
+        for i, bc in enumerate(result.bodies):
+            deep[i] = max(deep[i], slab.max(deep_damage_ratio(bc.damage_rate)))
         with event("apply_cycles"):
-            worn = apply_cycles(state, result, n, cycle.z, cycle.slab, params.wear_integration)
-        for bs, w, was in zip(state.bodies, worn, before, strict=True):
+            steps = apply_cycles(state, result, n, cycle.z, slab, params.wear_integration)
+        for i, (bs, st) in enumerate(zip(state.bodies, steps, strict=True)):
             if bs.rq0 > 0:
-                wear_step = max(wear_step, w / bs.rq0)
-            pit_step = max(pit_step, float((bs.pitted & ~was).mean()))
+                wear_step = max(wear_step, st.shape_change / bs.rq0)
+            pit_step = max(pit_step, st.new_pits / bs.pitted.size)
+            new_pits[i] += st.new_pits
+            low_pits[i] += st.new_low_pits
+            added[i] += st.damage_added
+            low_added[i] += st.low_damage_added
         phi_acc += n * result.phi
+        plastic_acc += n * result.plastic_share
         n_done += n
         left -= n
         subs += 1
     state.block += 1
     b = state.bodies
+    added = [slab.sum(a) for a in added]
+    low_added = [slab.sum(a) for a in low_added]
+    pair = lambda f: (f(0), f(1))  # noqa: E731
     rec = BlockRecord(
         block=state.block, cycles=state.cycles, sub_blocks=subs, phi=phi_acc / n_done,
         wall_s=time.perf_counter() - t0, Ap=(b[0].Ap, b[1].Ap),
-        max_damage=(cycle.slab.max(b[0].damage.max()), cycle.slab.max(b[1].damage.max())),
+        max_damage=(slab.max(b[0].damage.max()), slab.max(b[1].damage.max())),
         wear_mean=(float(b[0].wear.mean()), float(b[1].wear.mean())),
         wear_max=(float(b[0].wear.max()), float(b[1].wear.max())),
         Rq=(b[0].rq, b[1].rq),
         n_micro=(result.bodies[0].n_micro, result.bodies[1].n_micro), wear_step=wear_step,
-        pit_step=pit_step)
+        pit_step=pit_step,
+        low_cycle_damage=pair(lambda i: low_added[i] / added[i] if added[i] > 0 else 0.0),
+        low_cycle_pits=pair(lambda i: low_pits[i] / new_pits[i] if new_pits[i] else 0.0),
+        plastic_share=plastic_acc / n_done, deep_damage=(deep[0], deep[1]),
+        slope=pair(lambda i: rms_slope(b[i].heights, cycle.grid.dx)),
+        pit_depth_max=pair(lambda i: float(b[i].pit_depth.max())))
     return rec
-
-

@@ -57,7 +57,9 @@ CHECKPOINT_DIR = "checkpoints"
 RECORD_FIELDS = ("block", "cycles", "sub_blocks", "phi", "wall_s", "Ap1", "Ap2",
                  "max_damage1", "max_damage2", "wear_mean1", "wear_mean2", "wear_max1",
                  "wear_max2", "Rq1", "Rq2", "n_micro1", "n_micro2", "wear_step",
-                 "pit_step")
+                 "pit_step", "low_cycle_damage1", "low_cycle_damage2", "low_cycle_pits1",
+                 "low_cycle_pits2", "plastic_share", "deep_damage1", "deep_damage2", "slope1",
+                 "slope2", "pit_depth_max1", "pit_depth_max2")
 
 
 def record_row(rec: BlockRecord) -> np.ndarray:
@@ -74,7 +76,7 @@ def record_from_row(row: np.ndarray) -> BlockRecord:
     for f in fields(BlockRecord):
         if f.name in ("block", "sub_blocks"):
             vals[f.name], i = int(row[i]), i + 1
-        elif f.name in ("cycles", "phi", "wall_s", "wear_step", "pit_step"):
+        elif f.name in ("cycles", "phi", "wall_s", "wear_step", "pit_step", "plastic_share"):
             vals[f.name], i = float(row[i]), i + 1
         else:
             vals[f.name], i = (float(row[i]), float(row[i + 1])), i + 2
@@ -269,9 +271,9 @@ def _inspect(path: Path, study: Study, scene: Scene, force: bool) -> list[float]
 def run_study(scene: Scene, opts: RunOptions, comm,
               log: Callable[[str], None] = lambda s: None,
               on_block: Callable[[int, int, dict], None] | None = None,
-              on_start: Callable[[int, int], None] | None = None) -> RunOutcome:
+              on_start: Callable[[int, int, Study], None] | None = None) -> RunOutcome:
     """Run (or resume) every work item of ``scene`` on ``comm`` (collective). ``on_start``
-    is called on every rank before the first block with (blocks, blocks already done),
+    is called on every rank before the first block with (blocks, blocks already done, study),
     ``on_block`` after each block with (block, blocks, records)."""
     rank0 = comm.rank == 0
     ckdir = Path(opts.out) / CHECKPOINT_DIR
@@ -304,7 +306,7 @@ def run_study(scene: Scene, opts: RunOptions, comm,
 
     done, reason, written = start, None, start
     if on_start is not None:
-        on_start(study.blocks, start)
+        on_start(study.blocks, start, study)
     with StopControl(comm, opts.stop_file, opts.max_wall_s) as control:
         for k in range(start + 1, study.blocks + 1):
             t0 = time.perf_counter()

@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Any
 
 from micropit_hpc.errors import SceneError, format_value
+from micropit_hpc.fatigue.sn import LOW_CYCLE
 from micropit_hpc.film import FILM_MODELS, THERMAL_MODELS
 from micropit_hpc.gear import (
     LOAD_SHARING,
@@ -270,6 +271,8 @@ _STRESS = Section("stress", "Subsurface stress layers (MODEL.md §4.2).", (
 ))
 
 COUNTING = ("sliding", "rainflow")
+#: Time integration of the life (micropit_hpc.life): the adaptive split or the paper's blocks.
+INTEGRATIONS = ("adaptive", "paper")
 
 _FATIGUE = Section("fatigue", """
 Dang Van stress, S–N line and cycle counting (MODEL.md §4.3–§4.4). A material point fails, and
@@ -295,6 +298,13 @@ the material above it detaches as a micropit, when its Miner damage reaches 1.
         "local wear and pit updates leave, which m4 (∝ k⁴) would otherwise count as peaks "
         "(λ_c fell from 33 to 2.6 cells after 3 M cycles of wear, docs/life.md). 2 keeps every "
         "resolved wavelength (down to Nyquist).", default=4.0, lo=2, hi=1e4),
+    Key("n_min", "n_min", "float", "The fewest cycles the S–N line's data cover: below them "
+        "the line is extrapolated (it predicts failure within one cycle at τ = B/√3, below "
+        "the shear yield). The run reports the share of damage and new pits from N < n_min "
+        "and warns above 10 %.", "cycles", 1.0, default=1e4, lo=1, hi=1e12),
+    Key("low_cycle", "low_cycle", "str", "Below n_min: `extrapolate` the line (the paper) or "
+        "`cap` the life at N = n_min (a sensitivity run, docs/life.md).",
+        default="extrapolate", choices=LOW_CYCLE),
 ))
 
 _WEAR = Section("wear", """
@@ -348,6 +358,13 @@ surfaces, with the adaptive split of a block.
         "written, which digs contact spots many R_q deep when the sub-block is much longer "
         "than the few thousand cycles their wear takes to relieve them (docs/life.md).",
         default="relaxed", choices=("relaxed", "explicit")),
+    Key("integration", "integration", "str", "Time integration of the life [decision]. "
+        "`adaptive`: blocks split until damage, pits and wear are resolved in time (the "
+        "limits above); `paper`: the paper's scheme, one evaluation per block of ΔN on the "
+        "block's starting surfaces, damage and wear applied over the whole block, then the "
+        "pit check. In `paper` the wear–fatigue competition depends on block_M "
+        "(docs/life.md, \"Two time integrations\").", default="adaptive",
+        choices=INTEGRATIONS),
 ))
 
 _FILM = Section("film", "Central film thickness of the smooth contact (MODEL.md §2.4).", (
@@ -583,6 +600,8 @@ class FatigueSpec:
     alpha: float | None = None
     macro_samples: int = 241
     peak_spacing_min_cells: float = 4.0
+    n_min: float = 1e4
+    low_cycle: str = "extrapolate"
 
 
 @dataclass(frozen=True)
@@ -605,6 +624,7 @@ class LifeSpec:
     max_splits: int = 64
     pit_contact: str = "unloaded"
     wear_integration: str = "relaxed"
+    integration: str = "adaptive"
 
 
 @dataclass(frozen=True)

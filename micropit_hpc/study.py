@@ -30,13 +30,16 @@ from micropit_hpc.life import (
     rainflow_steps,
     run_block,
 )
+from micropit_hpc.regime import block_flags, window_problems
 from micropit_hpc.scene import Scene
 from micropit_hpc.surfaces import Topography
 
 __all__ = ["SUMMARY_COLUMNS", "ItemRun", "Study", "WorkItem", "summary_rows", "work_items"]
 
 SUMMARY_COLUMNS = ("item", "position", "S", "p0_GPa", "Lambda", "k_lub_s", "body", "cycles",
-                   "Ap_pct", "max_damage", "wear_um", "Rq_um")
+                   "Ap_pct", "max_damage", "wear_um", "Rq_um", "slope_dq", "low_cycle_damage_pct",
+                   "low_cycle_pits_pct", "p_lim_area_pct", "deep_damage_ratio",
+                   "pit_depth_max_um", "flags")
 
 
 @dataclass(frozen=True)
@@ -122,16 +125,21 @@ class ItemRun:
         return run_block(self.cycle, self.state, self.params, cycles)
 
 
-def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord],
-                 lambda_: float) -> list[tuple]:
+def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord], lambda_: float,
+                 z_max: float = math.inf, window_ok: bool = True) -> list[tuple]:
     """Rows of summary.csv (:data:`SUMMARY_COLUMNS`) for one item (contact conditions ``c``),
-    one per body and block."""
+    one per body and block; ``flags``: the block's flags outside the model's range
+    (:func:`~micropit_hpc.regime.block_flags`, joined by ``;``, ``none`` inside it)."""
     rows = []
     for r in records:
+        flags = ";".join(block_flags(r, z_max, window_ok)) or "none"
         for body in (1, 2):
+            i = body - 1
             rows.append((item.id, item.position, c.S, c.p0 / 1e9, lambda_, item.k_lub, body,
-                         r.cycles, r.Ap[body - 1], r.max_damage[body - 1],
-                         r.wear_mean[body - 1] * 1e6, r.Rq[body - 1] * 1e6))
+                         r.cycles, r.Ap[i], r.max_damage[i], r.wear_mean[i] * 1e6,
+                         r.Rq[i] * 1e6, r.slope[i], 100 * r.low_cycle_damage[i],
+                         100 * r.low_cycle_pits[i], 100 * r.plastic_share, r.deep_damage[i],
+                         r.pit_depth_max[i] * 1e6, flags))
     return rows
 
 
@@ -164,6 +172,14 @@ class Study:
         self.runs: dict[int, ItemRun] = {}
         self._ra: dict[tuple[int, float], tuple[float, float]] = {}
         self.blocks = max(1, round(scene.life.cycles / scene.life.block))
+        grid, z = self.window()
+        self.z_max = float(z[-1])
+        #: why the window does not hold the synthetic surfaces (empty when it does)
+        self.window_problems = window_problems(scene, grid)
+        for p in self.window_problems:
+            self.log(f"warning: {scene.source}: the window does not hold the roughness: {p}; "
+                     "its R_q and slopes are not the surface's (docs/life.md, \"The model's "
+                     "range\")")
 
     def assign(self, costs: Sequence[float]) -> None:
         """Assign the items longest-first by ``costs`` (before :meth:`setup`)."""

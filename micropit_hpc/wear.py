@@ -41,7 +41,6 @@ gives the measurements of both cases.
 
 from __future__ import annotations
 
-import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 

@@ -72,7 +72,8 @@ def test_detach_removes_down_to_the_deepest_failed_layer():
     assert new.ravel().tolist() == [True, False]
     assert depth.ravel().tolist() == [2.5, 0.0]
     # removed layers' damage discarded; material from 2.5 below comes up
-    np.testing.assert_allclose(out[:, 0, 0], [0.15, 0.25, 0.2, 0.1])
+    # (the deepest layer now reads z = 11.5, its own bottom: zero-damage refill)
+    np.testing.assert_allclose(out[:, 0, 0], [0.15, 0.25, 0.2, 0.0])
     assert np.array_equal(out[:, 1, 0], D[:, 1, 0])
     assert (out < 1).all()
 
@@ -85,8 +86,28 @@ def test_shift_columns_moves_damage_up_and_is_exact_for_no_shift():
     s = shift_columns(D, z, np.full((3, 2), 1.0))
     np.testing.assert_allclose(s[0], D[1])                       # z=0 now holds z=1
     np.testing.assert_allclose(s[1], D[1] + (D[2] - D[1]) / 3)   # z=1 holds z=2
-    np.testing.assert_allclose(s[3], D[3])                       # below: the deepest layer's
+    # below z_max = 9 the damage fades to zero at the deepest layer's bottom, 11.5
+    np.testing.assert_allclose(s[3], D[3] * (11.5 - 10.0) / 2.5)
+    assert np.array_equal(shift_columns(D, z, np.full((3, 2), 2.5))[3], np.zeros((3, 2)))
     assert (s >= 0).all()
+
+
+def test_failed_material_never_re_enters_and_one_pit_stops_at_z_max():
+    """A column whose deepest layer has failed: the pit removes it down to z_max (not the
+    layer's bottom), the material that comes up is fresh; repeated wear shifts bring no failed
+    material up (the earlier refill with the deepest layer's damage made it re-enter and pits
+    dig far below the layers)."""
+    z = np.array([0.0, 1.0, 4.0, 9.0])
+    D = np.zeros((4, 1, 1))
+    D[:, 0, 0] = [0.2, 0.4, 0.9, 1.5]                  # the deepest layer has failed
+    out, depth, new = detach(D, z)
+    assert new.all() and depth.ravel().tolist() == [9.0]
+    assert np.array_equal(out, np.zeros_like(D))
+    D[:, 0, 0] = [0.2, 0.4, 0.9, 0.99]
+    for _ in range(20):                                  # wear shifts, 0.5 each
+        D = shift_columns(D, z, np.full((1, 1), 0.5))
+        assert detach(D, z)[2].sum() == 0
+    assert D.max() < 0.99
 
 
 # ---- wear ----------------------------------------------------------------------------------

@@ -15,7 +15,8 @@ import numpy as np
 
 from micropit_hpc import __version__, source_commit
 from micropit_hpc.errors import MicropitError
-from micropit_hpc.io.hdf5 import atomic_h5, scene_json
+from micropit_hpc.io.hdf5 import atomic_h5, h5py_module, scene_json
+from micropit_hpc.regime import block_flags
 from micropit_hpc.report import write_text_atomic
 
 __all__ = ["write_results", "write_summary"]
@@ -73,6 +74,7 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
             tab["roll_angle"].attrs["unit"] = "rad"
             tab["radial_position"] = np.array([c.radial_position for c in conds])
             tab["radial_position"].attrs["unit"] = "m"
+            f.attrs["window_problems"] = "; ".join(study.window_problems) or "none"
             hist = f.create_group("history")
             for iid, recs in records.items():
                 g = hist.create_group(f"item_{iid:05d}")
@@ -80,9 +82,18 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
                                    ("phi", "1"), ("wall_s", "s"), ("Ap", "%"),
                                    ("max_damage", "1"), ("wear_mean", "m"), ("wear_max", "m"),
                                    ("Rq", "m"), ("n_micro", "1"), ("wear_step", "1"),
-                                   ("pit_step", "1")):
+                                   ("pit_step", "1"), ("low_cycle_damage", "1"),
+                                   ("low_cycle_pits", "1"), ("plastic_share", "1"),
+                                   ("deep_damage", "1"), ("slope", "rad"),
+                                   ("pit_depth_max", "m")):
                     g[name] = np.array([getattr(r, name) for r in recs])  # (blocks[, 2 bodies])
                     g[name].attrs["unit"] = unit
+                flags = [";".join(block_flags(r, study.z_max, not study.window_problems))
+                         or "none" for r in recs]
+                g.create_dataset("flags", data=np.array(flags, dtype=object),
+                                 dtype=h5py_module().string_dtype())
+                g["flags"].attrs["description"] = ("per block: flags outside the model's range "
+                                                   "(docs/life.md, \"The model's range\")")
             mg = f.create_group("maps")
             for iid, m in maps.items():
                 g = mg.create_group(f"item_{iid:05d}")

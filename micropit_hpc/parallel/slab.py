@@ -125,6 +125,13 @@ class Slab:
             return float(value)
         return float(self.comm.allreduce(float(value), op=_op_max()))
 
+    def sum(self, value: float) -> float:
+        """The sum of ``value`` over the group, added in rank order (the same on every rank).
+        Collective."""
+        if self.comm.size == 1:
+            return float(value)
+        return float(sum(self.comm.allgather(float(value))))
+
     def bcast(self, obj):
         """The group root's ``obj`` on every rank. Collective."""
         return obj if self.comm.size == 1 else self.comm.bcast(obj, root=0)

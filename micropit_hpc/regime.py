@@ -1,0 +1,126 @@
+"""The model's range: which results of a block lie outside it, as flags and one warning line.
+
+A result outside the range the model was built for must never reach a user silently
+(docs/life.md, "The model's range"). Each block record (:class:`~micropit_hpc.life.BlockRecord`)
+carries the numbers; this module holds the limits and turns the numbers into flags (in
+summary.csv and results.h5) and into one warning line per block for the run log:
+
+* ``saturated``: A_p ≥ 90 % on a body: the window is pitted through, and A_p no longer tells
+  one condition from another (nor wear from none).
+* ``low_cycle``: more than 10 % of the block's damage, or of its new pits, came from N below
+  ``fatigue.n_min``, where the S–N line is extrapolated beyond its data (down to one-cycle
+  failure at τ = B/√3, below the shear yield).
+* ``plastic``: more than half of the contact area is at the pressure cap p_lim: the contact is
+  dominated by plasticity, and the elastic stresses under it are outside the model's range.
+* ``deep_layer``: the deepest stress layer's damage rate exceeds 1e-3 of its column's
+  largest: the layers do not reach below the damage (raise ``stress.depth_b``).
+* ``pits_below_layers``: a column has lost more material to pits than the stress layers reach
+  (z_max): its damage below was never evaluated.
+* ``window``: a synthetic surface's correlation lengths do not fit the window (L_x ≥ 4 β_x and
+  L_y ≥ 2 β_y); one ridge spans the window and its R_q is not the surface's.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+
+__all__ = ["LIMITS", "block_flags", "block_warning", "window_problems"]
+
+#: The limits of the model's range (module docstring).
+LIMITS = {"saturated_Ap_pct": 90.0, "low_cycle_share": 0.10, "plastic_share": 0.5,
+          "deep_damage_ratio": 1e-3, "window_x_corr": 4.0, "window_y_corr": 2.0}
+
+
+def window_problems(scene, grid) -> list[str]:
+    """What keeps the window from holding each synthetic Gaussian surface of ``scene`` on
+    ``grid``: L_x ≥ 4 β_x and L_y ≥ 2 β_y (β the 10 % correlation lengths), one text per
+    problem; empty when it holds. Self-affine and measured surfaces are not checked here
+    (a measured map is its own window; a self-affine field's longest wavelength is cut to
+    the window by construction; ridges of infinite length across, β_y = inf, are constant
+    along y and so periodic in any window)."""
+    out = []
+    for i, body in ((1, scene.body1), (2, scene.body2)):
+        s = body.surface
+        if s.kind != "gaussian" or body.Rq == 0.0:
+            continue
+        for axis, length, corr, factor in (("x", grid.lx, s.corr_x, LIMITS["window_x_corr"]),
+                                           ("y", grid.ly, s.corr_y, LIMITS["window_y_corr"])):
+            if math.isfinite(corr) and length < factor * corr * (1 - 1e-9):
+                out.append(f"body{i}.surface.corr_{axis}_um = {corr * 1e6:g} µm needs a window "
+                           f"of at least {factor:g} × that along {axis} "
+                           f"({factor * corr * 1e6:g} µm), the window is "
+                           f"{length * 1e6:.4g} µm")
+    return out
+
+
+def block_flags(rec, z_max: float, window_ok: bool = True) -> list[str]:
+    """The flags (module docstring) of one block record; empty inside the model's range."""
+    lim = LIMITS
+    flags = []
+    if max(rec.Ap) >= lim["saturated_Ap_pct"]:
+        flags.append("saturated")
+    if max(*rec.low_cycle_damage, *rec.low_cycle_pits) > lim["low_cycle_share"]:
+        flags.append("low_cycle")
+    if rec.plastic_share > lim["plastic_share"]:
+        flags.append("plastic")
+    if max(rec.deep_damage) > lim["deep_damage_ratio"]:
+        flags.append("deep_layer")
+    if max(rec.pit_depth_max) > z_max * (1 + 1e-9):
+        flags.append("pits_below_layers")
+    if not window_ok:
+        flags.append("window")
+    return flags
+
+
+def _items(ids: Sequence[int]) -> str:
+    ids = sorted(ids)
+    return ("item " if len(ids) == 1 else "items ") + ", ".join(str(i) for i in ids[:8]) + (
+        f" … ({len(ids)} in all)" if len(ids) > 8 else "")
+
+
+def block_warning(block: int, records: Mapping[int, object], z_max: float,
+                  window_ok: bool = True) -> str | None:
+    """One warning line for the run log on the last records of a block (item id → record), or
+    None when every item is inside the model's range."""
+    lim = LIMITS
+    found: dict[str, list[int]] = {}
+    for iid, rec in records.items():
+        for f in block_flags(rec, z_max, window_ok):
+            found.setdefault(f, []).append(iid)
+    if not found:
+        return None
+
+    def worst(ids, value):
+        iid = max(ids, key=lambda i: value(records[i]))
+        return value(records[iid]), iid
+
+    parts = []
+    for flag, ids in found.items():
+        if flag == "saturated":
+            v, i = worst(ids, lambda r: max(r.Ap))
+            parts.append(f"A_p saturated (≥ {lim['saturated_Ap_pct']:g} %) on {_items(ids)}, "
+                         f"up to {v:.3g} % (item {i})")
+        elif flag == "low_cycle":
+            v, i = worst(ids, lambda r: max(*r.low_cycle_damage, *r.low_cycle_pits))
+            parts.append(f"damage or pits from N < fatigue.n_min above "
+                         f"{100 * lim['low_cycle_share']:g} % on {_items(ids)}, up to "
+                         f"{100 * v:.3g} % (item {i}): the S–N line is extrapolated there")
+        elif flag == "plastic":
+            v, i = worst(ids, lambda r: r.plastic_share)
+            parts.append(f"plasticity-dominated contact (more than half the contact area at "
+                         f"p_lim) on {_items(ids)}, up to {100 * v:.3g} % (item {i})")
+        elif flag == "deep_layer":
+            v, i = worst(ids, lambda r: max(r.deep_damage))
+            parts.append(f"the deepest layer's damage rate is {v:.3g} of its column's largest "
+                         f"(item {i}; above {lim['deep_damage_ratio']:g} on {_items(ids)}): "
+                         "raise stress.depth_b")
+        elif flag == "pits_below_layers":
+            v, i = worst(ids, lambda r: max(r.pit_depth_max))
+            parts.append(f"pits deeper than the stress layers ({z_max * 1e6:.3g} µm) on "
+                         f"{_items(ids)}, up to {v * 1e6:.3g} µm (item {i})")
+        elif flag == "window":
+            parts.append("the window does not hold the surfaces' correlation lengths "
+                         "(see the set-up warning)")
+    return (f"warning: block {block}: outside the model's range: " + "; ".join(parts)
+            + " (docs/life.md, \"The model's range\")")
