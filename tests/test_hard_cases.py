@@ -29,7 +29,6 @@ from micropit_hpc.cycle import PositionCycle, body_surface, reference_half_width
 from micropit_hpc.errors import MicropitError, SceneError
 from micropit_hpc.life import BlockRecord, LifeParams, evaluate_cycle, initial_state, run_block
 from micropit_hpc.lubrication.dry import ContactError
-from micropit_hpc.mechanics.hertz_field import line_contact_stress
 from micropit_hpc.scene import scene_from_dict
 from micropit_hpc.study import ItemRun, WorkItem
 from micropit_hpc.surfaces import Topography

@@ -10,13 +10,12 @@ import tomllib
 import numpy as np
 import pytest
 from conftest import SCENES
+from test_life import tiny_doc
 
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.scene import scene_from_dict
 from micropit_hpc.spectral import to_material_frame
-from test_life import tiny_doc
-
 
 
 def _cycle(tmp_path, base: str, position: int) -> PositionCycle:
@@ -39,10 +38,10 @@ def test_surface_tractions_hold_at_every_step(tmp_path, case):
     """σ_zz(0) = −p, σ_xz(0) = −q, σ_yz(0) = 0 in each body's material frame at every step of a
     paper-gear cycle (position 3, single-pair zone, S = −0.39), an MPR cycle (|S| = 0.3) and an
     elliptical disc contact, to round-off (the elliptical macro field is a numerical DC-FFT
-    field, accurate to 1e-3 p0, so there to that: tests/test_hertz_field.py); the moved pressure within [0, p_lim], with its mean
-    p̄_j; no tension on the surface. (Before the fix the macro field was taken at each point's
-    own position and the maps moved by a Fourier shift: up to +1.5 p0 of σ_zz on free surface
-    points of the gear.)"""
+    field, accurate to 1e-3 p0, so there to that: tests/test_hertz_field.py); the moved
+    pressure within [0, p_lim], with its mean p̄_j; no tension on the surface. (Before the fix
+    the macro field was taken at each point's own position and the maps moved by a Fourier
+    shift: up to +1.5 p0 of σ_zz on free surface points of the gear.)"""
     cyc = {"gear": lambda: _cycle(tmp_path, "paper_gear_z23", 3),
            "mpr": lambda: _cycle(tmp_path, "paper_mpr", 3),
            "ellipse": lambda: _elliptical(tmp_path)}[case]()
