@@ -467,11 +467,24 @@ def sub_block_cycles(state: LifeState, result: CycleResult, left: float,
     return min(n, left)
 
 
-def deep_damage_ratio(rate: np.ndarray) -> float:
+#: A column counts in :func:`deep_damage_ratio` when it gathers at least this damage per block.
+DEEP_SIGNIFICANT = 1e-3
+
+
+def deep_damage_ratio(rate: np.ndarray, significant: float = 0.0,
+                      intact: np.ndarray | None = None) -> float:
     """The largest ratio, over the columns, of the deepest layer's damage rate to the column's
-    largest (0 where a column has none): how much damage the layers leave below them."""
+    largest: how much damage the layers leave below them. Only intact columns (``intact``,
+    default all) whose largest rate is at least ``significant`` count (0 when none does): a
+    column that gathers no damage worth the name (the smooth macro cycle alone, whose Hertz
+    stress peaks far below the layers) says nothing about whether the layers reach deep
+    enough, and under an unloaded pit the neighbours' load peaks below the pit floor, which
+    is the pit's growth (reported as ``pit_depth_max``), not the layers' reach."""
     top = rate.max(axis=0)
-    ratio = np.divide(rate[-1], top, out=np.zeros_like(top), where=top > 0)
+    use = (top > 0) & (top >= significant)
+    if intact is not None:
+        use &= intact
+    ratio = np.divide(rate[-1], top, out=np.zeros_like(top), where=use)
     return float(ratio.max()) if ratio.size else 0.0
 
 
@@ -498,7 +511,9 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
         result = evaluate_cycle(cycle, state, params, warm)
         n = sub_block_cycles(state, result, left, params, slab)
         for i, bc in enumerate(result.bodies):
-            deep[i] = max(deep[i], slab.max(deep_damage_ratio(bc.damage_rate)))
+            intact = ~state.bodies[i].pitted[slab.rows]
+            deep[i] = max(deep[i], slab.max(deep_damage_ratio(
+                bc.damage_rate, DEEP_SIGNIFICANT / params.block, intact)))
         with event("apply_cycles"):
             steps = apply_cycles(state, result, n, cycle.z, slab, params.wear_integration)
         for i, (bs, st) in enumerate(zip(state.bodies, steps, strict=True)):
