@@ -467,8 +467,10 @@ def sub_block_cycles(state: LifeState, result: CycleResult, left: float,
     return min(n, left)
 
 
-#: A column counts in :func:`deep_damage_ratio` when it gathers at least this damage per block.
-DEEP_SIGNIFICANT = 1e-3
+#: A column counts in :func:`deep_damage_ratio` when it gathers at least this damage per block:
+#: one that could pit within ten blocks (the valleys between contact spots gather their little
+#: damage below the surface, from their neighbours' loads, and would otherwise always count).
+DEEP_SIGNIFICANT = 0.1
 
 
 def deep_damage_ratio(rate: np.ndarray, significant: float = 0.0,
