@@ -39,8 +39,9 @@ def write_snapshot(path: str | Path, cycle, fields, stresses: dict[int, np.ndarr
                      ("S", c.S), ("hc_m", c.hc), ("Lambda", c.Lambda)):
             a[k] = v
         a["level"] = fields.level
-        a["frames"] = ("window frame for the contact fields; stress_body<i> and "
-                       "height_body<i> in the material frame of body i")
+        a["frames"] = ("window frame for the contact fields; stress_body<i>, height_body<i>, "
+                       "pressure_material_body<i> and traction_material_body<i> in the "
+                       "material frame of body i")
 
         def put(name, data, unit, doc):
             d = f.create_dataset(name, data=data)
@@ -57,6 +58,13 @@ def write_snapshot(path: str | Path, cycle, fields, stresses: dict[int, np.ndarr
         for i in (1, 2):
             put(f"traction_body{i}", getattr(fields, f"traction{i}"), "Pa",
                 f"friction traction on body {i} along +x")
+            p_mat, q_mat = cycle.material_tractions(fields, i)
+            put(f"pressure_material_body{i}", p_mat, "Pa",
+                f"contact pressure in body {i}'s material frame (the stresses' frame: "
+                f"stress_body{i}[zz, 0] = -this)")
+            put(f"traction_material_body{i}", q_mat, "Pa",
+                f"friction traction on body {i} along +x in its material frame "
+                f"(stress_body{i}[xz, 0] = -this)")
             put(f"height_body{i}", cycle.surfaces[i - 1].heights, "m",
                 f"topography of body {i}, outward positive")
         for i, s in stresses.items():
