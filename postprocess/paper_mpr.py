@@ -77,6 +77,32 @@ def mpr(run: Path, say=print) -> bool:
     return ok
 
 
+def bracket(run15: Path, run30: Path, say=print) -> tuple[bool, list[list]]:
+    """Whether the paper's model A_p at 6 M (and 10 M) lies between our results of the two
+    surface variants (β_x = 15 and 30 µm) at each |S| (MODEL.md §7, revised); returns the
+    verdict and the table rows (|S|, cycles, experiment, paper's model, ours β15, ours β30,
+    inside?)."""
+    paper = list(csv.DictReader(open(ROOT / "validation" / "mpr_triple_disc_Ap.csv")))
+    r15, r30 = _rows(run15), _rows(run30)
+    table, ok = [], True
+    for p in paper:
+        s, n = float(p["abs_S"]), float(p["cycles_million"]) * 1e6
+        a, b = (next((float(r["Ap_pct"]) for r in rows if abs(abs(float(r["S"])) - s) < 1e-9
+                      and abs(float(r["cycles"]) - n) < 1.0), None) for rows in (r15, r30))
+        model = float(p["Ap_model_pct"])
+        inside = None not in (a, b) and min(a, b) <= model <= max(a, b)
+        if n == 6e6:
+            ok &= inside
+        table.append([s, p["cycles_million"], p["Ap_experiment_pct"], p["Ap_model_pct"],
+                      "" if a is None else f"{a:.4g}", "" if b is None else f"{b:.4g}",
+                      "yes" if inside else "no"])
+    six = [t for t in table if t[1] == "6"]
+    say("the paper's model between β_x = 15 and 30 µm at 6 M: " + ", ".join(
+        f"|S| {t[0]}: {t[3]} in [{t[4] or '—'}, {t[5] or '—'}] {t[6]}" for t in six)
+        + f" -> {'holds' if ok else 'FAILS'}")
+    return ok, table
+
+
 def table9(run: Path, say=print) -> bool:
     """Trend 7 on the run of scenes/paper_mpr_table9*.toml; ``say`` gets each verdict line."""
     rows = _rows(run)

@@ -8,6 +8,8 @@
 # On 2 cores (commit 9d3aafc): paper_mpr 5.9 min, paper_mpr_beta30 11.6, paper_mpr_table9_beta30
 # 33.7; paper_mpr_table9 about 90 min (6 blocks of 12-17 min, commits 1114554 and 5bdf427),
 # so about 2 h 20 min in all (SCENES="paper_mpr" for a subset).
+# Each scene runs as written (the paper's block scheme) and, unless ADAPTIVE=0, a second time
+# with `life.integration = "adaptive"` into runs/<scene>_adaptive/ (ADAPTIVE_ONLY=1: only that).
 # Exit status 1 if a trend fails.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -16,9 +18,20 @@ py=$(bash scripts/setup.sh)
 source scripts/mpi-env.sh
 np=${NP:-2}
 status=0
-for name in ${SCENES:-paper_mpr paper_mpr_table9 paper_mpr_beta30 paper_mpr_table9_beta30}; do
-    echo "== micropit run scenes/$name.toml on $np ranks"
-    mpirun -n "$np" "$py" -m micropit_hpc run "scenes/$name.toml" --out "runs/$name"
+runs=()
+for name in ${SCENES:-paper_mpr paper_mpr_beta30 paper_mpr_table9 paper_mpr_table9_beta30}; do
+    [ -n "${ADAPTIVE_ONLY:-}" ] || runs+=("$name:scenes/$name.toml")
+done
+if [ "${ADAPTIVE:-1}" != 0 ]; then
+    for name in ${SCENES:-paper_mpr paper_mpr_beta30 paper_mpr_table9 paper_mpr_table9_beta30}; do
+        runs+=("${name}_adaptive:$(bash scripts/adaptive-scene.sh "$name")")
+    done
+fi
+for entry in "${runs[@]}"; do
+    name=${entry%%:*}
+    scene=${entry#*:}
+    echo "== micropit run $scene on $np ranks"
+    mpirun -n "$np" "$py" -m micropit_hpc run "$scene" --out "runs/$name"
     case "$name" in
         *table9*) echo "== $name: A_p against Λ (trend 7)"
                   "$py" postprocess/paper_mpr.py table9 "runs/$name" || status=1 ;;

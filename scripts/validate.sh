@@ -9,6 +9,11 @@
 # about 90 min for paper_mpr_table9, about 2 h 45 min in all (scripts/validate-mpr.sh gives
 # each). SCENES="..." picks MPR scenes; GEARS_ONLY=1 skips the MPR runs
 # (their last results are reused).
+# Every paper scene runs the paper's block scheme (its `life.integration = "paper"`); each is run
+# a second time with `integration = "adaptive"` (runs/<scene>_adaptive/, from a copy of the scene
+# with that one key changed), and the report gives both. ADAPTIVE=0 skips the adaptive runs
+# (the report then says they are missing). The A_p-against-ΔN table comes from
+# benchmarks/results/block_scheme.csv (benchmarks/bench_block_scheme.py) when it is there.
 # Exit status 1 if a trend fails (the report is written either way).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -18,13 +23,24 @@ source scripts/mpi-env.sh
 np=${NP:-2}
 t0=$(date +%s)
 if [ -z "${GEARS_ONLY:-}" ]; then
-    bash scripts/validate-mpr.sh || true
+    ADAPTIVE=0 bash scripts/validate-mpr.sh || true
 fi
 for name in paper_gear_z23 paper_gear_z23_table5 paper_gear_z23_table8 paper_gear_z18; do
     echo "== micropit run scenes/$name.toml on $np ranks"
     mpirun -n "$np" "$py" -m micropit_hpc run "scenes/$name.toml" --out "runs/$name"
     "$py" postprocess/plot_flank.py "runs/$name"
 done
+if [ "${ADAPTIVE:-1}" != 0 ]; then
+    for name in paper_gear_z23 paper_gear_z23_table5 paper_gear_z23_table8 paper_gear_z18; do
+        scene=$(bash scripts/adaptive-scene.sh "$name")
+        echo "== micropit run $scene (adaptive blocks) on $np ranks"
+        mpirun -n "$np" "$py" -m micropit_hpc run "$scene" --out "runs/${name}_adaptive"
+        "$py" postprocess/plot_flank.py "runs/${name}_adaptive"
+    done
+    if [ -z "${GEARS_ONLY:-}" ]; then
+        ADAPTIVE_ONLY=1 bash scripts/validate-mpr.sh || true
+    fi
+fi
 status=0
 "$py" postprocess/validation_report.py --runs runs --out docs/validation || status=1
 echo "validation: $(( ($(date +%s) - t0) / 60 )) min on $np ranks; report docs/validation/README.md"

@@ -159,14 +159,16 @@ def test_measured_surface_from_a_scene(tmp_path):
     surf = ('\n[body1.surface]\nkind = "file"\nfile = "flank.npy"\nspacing_um = [12.5, 12.5]\n'
             'periodise = "none"\ndetrend = "mean"\n')
     window = SMALL.replace("n = 32", "n = 64\nlength_x_um = 800.0\nlength_y_um = 800.0")
-    path = _scene(tmp_path, extra=window + surf)
+    own = '[body1.surface]\nacf = "exponential"\ncorr_x_um = 30.0\ncorr_y_um = 150.0\n'
+    assert own in (SCENES / "gear_z23.toml").read_text()
+    path = _scene(tmp_path, extra=window + surf, drop=(own,))
     study = contact_study(load_scene(path))
     cyc = PositionCycle(study, 3)
     topo = body_surface(study.scene, 1, cyc.grid)
     assert "flank.npy" in topo.provenance
     assert np.abs(topo.heights - z).max() < 1e-12 * z.std()    # same grid: the map itself
     missing = _scene(tmp_path, extra=window + surf.replace("flank.npy", "nope.npy"),
-                     name="missing")
+                     drop=(own,), name="missing")
     with pytest.raises(SceneError, match=r"body1\.surface: .*nope\.npy.*not found"):
         PositionCycle(contact_study(load_scene(missing)), 3)
     np.save(tmp_path / "flank.npy", 3 * z)

@@ -324,6 +324,10 @@ def test_very_rough_surfaces(model, monkeypatch):
 
 # ---- 6. a single spike of 10 R_q ---------------------------------------------------------------
 SPIKE = (10, 7)
+#: The spike's cells: three along x (a plateau the linear transfer into each body's frame keeps
+#: at p_lim; a one-cell spike is smeared over two cells at fractional slips and halves its
+#: peak), one across.
+SPIKE_CELLS = (slice(9, 12), 7)
 
 
 def _spike_scene(tmp_path, base: str):
@@ -336,7 +340,7 @@ def _spike_scene(tmp_path, base: str):
     spike = 10 * doc["body1"]["Rq_um"] * 1e-6
     if base == "smooth":
         h = np.zeros((32, 32))
-        h[SPIKE] = spike
+        h[SPIKE_CELLS] = spike
         np.save(tmp_path / "spike.npy", h)
         doc["body1"]["Rq_um"] = float(h.std()) * 1e6
         doc["body1"]["surface"] = {"kind": "file", "file": "spike.npy",
@@ -347,7 +351,9 @@ def _spike_scene(tmp_path, base: str):
 
 @pytest.mark.parametrize("base", ["rough", "smooth", "none"])
 def test_single_spike(tmp_path, base, monkeypatch):
-    """A 10 R_q spike on body 1 is capped at p_lim and pits only its track; none, no pits."""
+    """A 10 R_q spike on body 1 (3 cells along x, 1 across) is capped at p_lim and damages
+    body 2 only along its track (by orders of magnitude more than anywhere else; pits, if
+    any, only there); none, no pits."""
     # body 1 rough (surfaces= of PositionCycle) or smooth (a measured .npy map, kind = "file"),
     # against rough body 2 at Λ = 1; the spike pits the row it ploughs on body 2 and nothing
     # else there, body 1 at most at the spike; "none": the same surfaces without the spike
@@ -359,12 +365,12 @@ def test_single_spike(tmp_path, base, monkeypatch):
         rough = body_surface(scene, 1, grid)
         h = rough.heights.copy()
         if base == "rough":
-            h[SPIKE] += spike
+            h[SPIKE_CELLS] += spike
         surfaces = (Topography(h, grid.dx, grid.dy, "spiked"), body_surface(scene, 2, grid))
     cycle = PositionCycle(study, 1, surfaces=surfaces)
     if base == "smooth":                       # the map read as written: the spike alone
         assert cycle.surfaces[0].heights[SPIKE] == pytest.approx(spike, rel=1e-12)
-        assert np.count_nonzero(cycle.surfaces[0].heights) == 1
+        assert np.count_nonzero(cycle.surfaces[0].heights) == 3
     state = initial_state(cycle)
     params = LifeParams.from_scene(scene, 0.0)
     records, rec = _blocks(cycle, state, params, monkeypatch)
@@ -373,8 +379,10 @@ def test_single_spike(tmp_path, base, monkeypatch):
         assert rec.p_max < cycle.p_lim and not pitted.any() and records[0].Ap == (0.0, 0.0)
         return
     assert rec.p_max == pytest.approx(cycle.p_lim, rel=1e-12)
-    track = state.bodies[1].pitted                  # body 2 slides under the spike along x
-    assert track.any() and not np.delete(track, SPIKE[1], axis=1).any()
+    b2 = state.bodies[1]                            # body 2 slides under the spike along x
+    assert not np.delete(b2.pitted, SPIKE[1], axis=1).any()
+    risk = np.where(b2.pitted, np.inf, b2.damage.max(axis=0))
+    assert risk[:, SPIKE[1]].max() > 100 * np.delete(risk, SPIKE[1], axis=1).max()
     ix, iy = np.nonzero(pitted)
     dx = np.minimum(np.abs(ix - SPIKE[0]), grid.nx - np.abs(ix - SPIKE[0]))
     assert (dx <= 1).all() and (iy == SPIKE[1]).all()

@@ -1,0 +1,105 @@
+"""A_p against the block length ΔN in both time integrations (docs/life.md, "Two time
+integrations"; docs/performance.md, "Block length and time integration").
+
+    .venv/bin/python benchmarks/bench_block_scheme.py [--n 64] [--procs 2]
+        [--blocks 0.1,0.25,0.5,1] [--cases gear3,mpr] [--out benchmarks/results]
+
+Two work items, k_lub = 0 and 1e-11 s, each with ``life.integration = "paper"`` (one
+evaluation per block on the block's starting surfaces, damage and wear over the whole block,
+then the pit check) and ``"adaptive"`` (blocks split until damage, pits and wear are resolved
+in time), for every ΔN:
+
+* ``gear3``: the paper's gear (scenes/paper_gear_z23.toml), position 3 (single-pair zone
+  below the pitch point, S = −0.39), 3 M cycles, patch 0;
+* ``mpr``: the MPR rig (scenes/paper_mpr.toml), |S| = 0.30, 6 M cycles (the first inspection).
+
+Everything else is the scene's, except the window grid (``--n``, default 64: the MPR scene's
+128² takes ~4× longer per evaluation). Rows (A_p of both bodies at the end, wear, evaluations,
+wall time) go to ``OUT/block_scheme.csv`` as they finish; a re-run skips the rows already
+there. The runs are spread over ``--procs`` processes (one core each).
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import time
+import tomllib
+from concurrent.futures import ProcessPoolExecutor
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+CASES = {"gear3": ("paper_gear_z23", 3, 3.0), "mpr": ("paper_mpr", 3, 6.0)}
+COLUMNS = ("case", "integration", "k_lub_s", "block_M", "n", "cycles_M", "Ap1_pct", "Ap2_pct",
+           "wear1_um", "wear2_um", "evaluations", "wall_s", "flags")
+
+
+def run_one(case: str, integration: str, k_lub: float, block: float, n: int) -> dict:
+    """One item to its life; returns a row of :data:`COLUMNS`."""
+    from micropit_hpc.regime import block_flags
+    from micropit_hpc.scene import scene_from_dict
+    from micropit_hpc.study import ItemRun, WorkItem
+
+    name, position, cycles = CASES[case]
+    doc = tomllib.loads((ROOT / "scenes" / f"{name}.toml").read_text())
+    doc.setdefault("window", {})["n"] = n
+    doc["wear"] = {"k_lub_s": [k_lub]}
+    doc["life"].update(cycles_M=cycles, block_M=block, integration=integration)
+    scene = scene_from_dict(doc, f"{name}.toml")
+    run = ItemRun(scene, WorkItem(0, position, k_lub, 1.0, 0))
+    t0 = time.perf_counter()
+    done, evals, rec = 0.0, 0, None
+    while done < cycles * 1e6 * (1 - 1e-9):
+        rec = run.run_block(min(block * 1e6, cycles * 1e6 - done))
+        done = rec.cycles
+        evals += rec.sub_blocks
+    flags = ";".join(block_flags(rec, float(run.cycle.z[-1]))) or "none"
+    return {"case": case, "integration": integration, "k_lub_s": k_lub, "block_M": block,
+            "n": n, "cycles_M": cycles, "Ap1_pct": round(rec.Ap[0], 3),
+            "Ap2_pct": round(rec.Ap[1], 3), "wear1_um": round(rec.wear_mean[0] * 1e6, 4),
+            "wear2_um": round(rec.wear_mean[1] * 1e6, 4), "evaluations": evals,
+            "wall_s": round(time.perf_counter() - t0, 1), "flags": flags}
+
+
+def _key(row) -> tuple:
+    return (row["case"], row["integration"], float(row["k_lub_s"]), float(row["block_M"]),
+            int(row["n"]))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--n", type=int, default=64)
+    ap.add_argument("--procs", type=int, default=2)
+    ap.add_argument("--blocks", default="0.1,0.25,0.5,1")
+    ap.add_argument("--cases", default="gear3,mpr")
+    ap.add_argument("--out", default=str(ROOT / "benchmarks" / "results"))
+    args = ap.parse_args(argv)
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    table = out / "block_scheme.csv"
+    have = {}
+    if table.is_file():
+        with open(table, newline="") as fh:
+            have = {_key(r): r for r in csv.DictReader(fh)}
+    jobs = [(c, i, k, float(b), args.n) for c in args.cases.split(",")
+            for i in ("paper", "adaptive") for k in (0.0, 1e-11)
+            for b in args.blocks.split(",")]
+    todo = [j for j in jobs if (j[0], j[1], j[2], j[3], j[4]) not in have]
+    # the longest first: adaptive, small blocks, the MPR rig
+    todo.sort(key=lambda j: (j[1] != "adaptive", j[0] != "mpr", j[3]))
+    new_file = not table.is_file()
+    with open(table, "a", newline="") as fh, ProcessPoolExecutor(args.procs) as pool:
+        w = csv.DictWriter(fh, COLUMNS)
+        if new_file:
+            w.writeheader()
+        futures = {pool.submit(run_one, *j): j for j in todo}
+        for fut in futures:
+            row = fut.result()
+            w.writerow(row)
+            fh.flush()
+            print(",".join(str(row[c]) for c in COLUMNS), flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
