@@ -98,3 +98,25 @@ def test_trend7_fails_when_broken(tmp_path, k0, k1, failing):
 def test_the_wear_cut_is_without_over_with_wear_per_lambda():
     assert paper_mpr._cuts([31.07, 3.76, 0.5066], [16.08, 0.1648, 0.0]) == "[1.93×, 22.8×, ∞]"
     assert paper_mpr._cuts([1.0, None], [0.5, 0.1]) == "[2×, —]"
+
+
+def test_the_papers_model_is_bracketed_by_the_two_surface_variants(tmp_path):
+    """MPR bracket: the paper's model A_p at 6 M lies between our β_x = 15 and 30 µm results
+    at every |S| (in either order); one |S| outside fails it, and 10 M does not count."""
+    model = _paper_mpr()
+    lo = {k: v - 1.0 for k, v in model.items()}
+    hi = {k: v + 2.0 for k, v in model.items()}
+    said = []
+    ok, table = paper_mpr.bracket(_summary(tmp_path / "a", _mpr_rows(hi)),
+                                  _summary(tmp_path / "b", _mpr_rows(lo)), said.append)
+    assert ok and said[0].endswith("holds") and len(table) == 6
+    assert all(row[-1] == "yes" for row in table)
+    below = lo | {(0.15, 6e6): model[(0.15, 6e6)] + 0.5}      # both variants above the model
+    ok, table = paper_mpr.bracket(_summary(tmp_path / "c", _mpr_rows(hi)),
+                                  _summary(tmp_path / "d", _mpr_rows(below)), said.append)
+    assert not ok and said[-1].endswith("FAILS")
+    assert [row[-1] for row in table if row[1] == "6"] == ["yes", "no", "yes"]
+    late = lo | {(0.3, 10e6): 50.0}                             # 10 M is shown, not judged
+    ok, _ = paper_mpr.bracket(_summary(tmp_path / "e", _mpr_rows(hi)),
+                              _summary(tmp_path / "f", _mpr_rows(late)), said.append)
+    assert ok
