@@ -10,7 +10,7 @@ import argparse
 import sys
 
 from micropit_hpc import __version__
-from micropit_hpc.errors import MicropitError, SceneError
+from micropit_hpc.errors import MicropitError
 from micropit_hpc.parallel import launcher_rank
 
 EXIT_USER_ERROR = 2
@@ -86,13 +86,13 @@ def _cmd_snapshot(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    import sys
     import time
     from pathlib import Path
 
     from micropit_hpc.io.results import write_results, write_summary
     from micropit_hpc.parallel import world
     from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
+    from micropit_hpc.parallel.failure import say
     from micropit_hpc.parallel.petsc import init_petsc, option, options_left_warning, stage
     from micropit_hpc.progress import NullProgress, Progress
     from micropit_hpc.runner import RunOptions, run_study
@@ -112,7 +112,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
     def log(msg: str) -> None:
         if rank0:
-            print(f"# {msg}", file=sys.stderr, flush=True)
+            say(f"# {msg}")
 
     opts = RunOptions(
         out=out, positions=None if args.position is None else tuple(args.position),
@@ -346,13 +346,71 @@ def main(argv: list[str] | None = None) -> int:
     args.petsc_options = extra
     try:
         return args.func(args)
-    except MicropitError as e:
-        if getattr(args, "debug", False):
-            raise
-        if isinstance(e, SceneError) and launcher_rank() > 0:
-            return EXIT_USER_ERROR  # every rank read the same file: rank 0 says it once
-        print(f"micropit: error: {e}", file=sys.stderr, flush=True)
-        return EXIT_USER_ERROR
+    except (Exception, KeyboardInterrupt) as e:  # every error ends the job
+        return _fail(e, getattr(args, "debug", False))
+
+
+#: Seconds the ranks wait for each other after an error every rank raised (collective): if a
+#: rank does not arrive, the error was not collective after all and the job is aborted.
+COLLECTIVE_EXIT_WAIT_S = 10.0
+
+
+def _mpi_world():
+    """COMM_WORLD when MPI is initialised and running, else None (never initialises MPI)."""
+    mpi = sys.modules.get("mpi4py.MPI")
+    if mpi is None or not mpi.Is_initialized() or mpi.Is_finalized():
+        return None
+    return mpi.COMM_WORLD
+
+
+def _fail(e: BaseException, debug: bool) -> int:
+    """Report ``e`` once and end the job (HPC.md §4: one rank's error must not hang the others).
+
+    A user error (:class:`MicropitError`) is one line ``micropit: error: ...``; any other
+    exception is a bug: its traceback (one rank only) and a one-line summary. On one rank the
+    exit code is returned. Under MPI a *collective* error (every rank raised it, e.g. a bad
+    scene or an agreed checkpoint verdict) is printed by rank 0 and every rank returns; a
+    rank-local error is printed by the rank that had it, which then calls ``MPI_Abort``: the
+    other ranks may be waiting for it in a collective call and would otherwise spin forever.
+    """
+    import traceback
+
+    from micropit_hpc.parallel.failure import abort_job, is_bug, one_line, say
+
+    text, code = one_line(e)
+    comm = _mpi_world()
+    size = comm.Get_size() if comm is not None else 1
+    if size == 1:
+        if debug or is_bug(e):
+            raise e
+        if comm is None and getattr(e, "collective", False) and launcher_rank() > 0:
+            return code  # MPI not started, every rank read the same file: rank 0 says it
+        say(f"micropit: error: {text}")
+        return code
+    if getattr(e, "collective", False):
+        if comm.Get_rank() == 0:
+            if debug:
+                traceback.print_exception(e)
+            say(f"micropit: error: {text}")
+        if _wait_for_all(comm, COLLECTIVE_EXIT_WAIT_S):
+            return code
+        e = MicropitError(f"the error above reached this rank but not every rank within "
+                          f"{COLLECTIVE_EXIT_WAIT_S:g} s; aborting the job")
+    abort_job(e, comm, debug)
+    return code  # not reached
+
+
+def _wait_for_all(comm, timeout_s: float) -> bool:
+    """True when every rank reaches this point within ``timeout_s`` (a non-blocking barrier)."""
+    import time
+
+    req = comm.Ibarrier()
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if req.Test():
+            return True
+        time.sleep(0.01)
+    return False
 
 
 def _item_list(ids: list[int], show: int = 12) -> str:

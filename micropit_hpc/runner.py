@@ -31,6 +31,7 @@ from pathlib import Path
 
 import numpy as np
 
+from micropit_hpc.errors import collective
 from micropit_hpc.io.checkpoint import (
     CheckpointError,
     FieldSpec,
@@ -236,7 +237,7 @@ def _read_state(path: Path, study: Study) -> tuple[int, dict[int, list[BlockReco
     if study.comm.size > 1:
         problem = study.comm.bcast(problem, root=0)
     if problem:
-        raise CheckpointError(problem)
+        raise collective(CheckpointError(problem))
     return done, records
 
 
@@ -262,7 +263,7 @@ def _inspect(path: Path, study: Study, scene: Scene, force: bool) -> list[float]
             answer = (str(e), None)
     problem, costs = comm.bcast(answer, root=0) if comm.size > 1 else answer
     if problem:
-        raise CheckpointError(problem)
+        raise collective(CheckpointError(problem))
     return costs
 
 

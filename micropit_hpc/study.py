@@ -20,7 +20,7 @@ import numpy as np
 
 from micropit_hpc.conditions import ContactStudy, contact_study
 from micropit_hpc.cycle import PositionCycle, body_surface, reference_half_width, window_grid
-from micropit_hpc.errors import MicropitError, SceneError
+from micropit_hpc.errors import MicropitError, SceneError, collective
 from micropit_hpc.film import iso_lambda_gf
 from micropit_hpc.life import (
     BlockRecord,
@@ -153,8 +153,14 @@ class Study:
         if positions is not None:
             bad = [p for p in positions if not 1 <= p <= n_pos]
             if bad:
-                raise MicropitError(f"{scene.source}: position {bad[0]} does not exist (the "
-                                    f"scene has positions 1 to {n_pos})")
+                raise collective(MicropitError(
+                    f"--position {bad[0]}: position {bad[0]} does not exist ({scene.source} has "
+                    f"positions 1 to {n_pos})"))
+            if len(set(positions)) != len(positions):
+                twice = sorted({p for p in positions if list(positions).count(p) > 1})
+                raise collective(MicropitError(
+                    f"--position {twice[0]} is given more than once: each position is one set "
+                    "of work items; give every position once"))
         self.items = work_items(scene, n_pos, positions)
         for pos in sorted({it.position for it in self.items}):
             check_life_kinematics(scene, self.base.conditions[pos - 1])

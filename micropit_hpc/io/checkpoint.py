@@ -33,9 +33,10 @@ from typing import Any
 import numpy as np
 
 from micropit_hpc import __version__
-from micropit_hpc.errors import MicropitError
+from micropit_hpc.errors import MicropitError, collective
 from micropit_hpc.io.hdf5 import h5py_module as _h5py
 from micropit_hpc.parallel import SerialComm
+from micropit_hpc.parallel.failure import abort_on_error
 from micropit_hpc.report import write_text_atomic
 
 FORMAT_VERSION = 1
@@ -293,7 +294,8 @@ def write_checkpoint(directory: str | Path, comm, block: int, n_items: int,
             for r, (_p, sig, *_rest) in enumerate(gathered) if sig != gathered[0][1]]
     if bad:
         text = "; ".join(f"rank {r}: {p}" for r, p in sorted(bad)[:4])
-        raise MicropitError(f"cannot write checkpoint block {block} in {directory}: {text}")
+        raise collective(MicropitError(
+            f"cannot write checkpoint block {block} in {directory}: {text}"))
     stored = gathered[0][3]
     n_writes = {name: max(g[2].get(name, 0) for g in gathered) for name in specs}
 
@@ -307,7 +309,7 @@ def write_checkpoint(directory: str | Path, comm, block: int, n_items: int,
     else:
         f = h5py.File(tmp, "w")
         dxpl = None
-    with f:
+    with f, abort_on_error(comm, parallel):  # the close is collective: no unwinding alone
         _at_stage("created", tmp)
         for name in sorted(specs):  # metadata: identical calls in the same order everywhere
             spec = specs[name]
@@ -343,7 +345,8 @@ def write_checkpoint(directory: str | Path, comm, block: int, n_items: int,
             problem = f"{final}: {e}"
     problem = comm.bcast(problem, root=0)
     if problem:
-        raise CheckpointError(f"checkpoint block {block} written but not published: {problem}")
+        raise collective(CheckpointError(
+            f"checkpoint block {block} written but not published: {problem}"))
     return final
 
 
@@ -413,8 +416,8 @@ def find_latest(directory: str | Path, comm=None,
                 answer = ("error", f"{type(e).__name__}: {e}")
         kind, value = comm.bcast(answer, root=0)
         if kind == "error":
-            raise CheckpointError(f"{directory}: scanning for checkpoints failed on rank 0: "
-                                  f"{value}")
+            raise collective(CheckpointError(
+                f"{directory}: scanning for checkpoints failed on rank 0: {value}"))
         return None if value is None else Path(value)
     return _scan(Path(directory), on_skip)
 
@@ -486,5 +489,5 @@ def read_checkpoint(path: str | Path, comm,
         problems = [p for p in comm.allgather(problem) if p]
         problem = problems[0] if problems else None
     if problem:
-        raise CheckpointError(problem)
+        raise collective(CheckpointError(problem))
     return attrs, out
