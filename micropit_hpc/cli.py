@@ -97,7 +97,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from micropit_hpc.progress import NullProgress, Progress
     from micropit_hpc.runner import RunOptions, run_study
     from micropit_hpc.scene import load_scene
-    from micropit_hpc.study import SUMMARY_COLUMNS, summary_rows
+    from micropit_hpc.study import SUMMARY_COLUMNS, block_cycles, life_blocks, summary_rows
 
     comm = world()
     rank0 = comm.rank == 0
@@ -124,8 +124,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise MicropitError("-micropit_checkpoint_keep and -micropit_checkpoint_every must be "
                             f"at least 1, got {opts.keep} and {opts.checkpoint_every}")
     t0 = time.perf_counter()
+    n_blocks = life_blocks(scene)
+    last = block_cycles(scene, n_blocks)
+    shorter = (f", the last of {last / 1e6:g} M" if last != scene.life.block else "")
     log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item, "
-        f"blocks of {scene.life.block / 1e6:g} M cycles to {scene.life.cycles / 1e6:g} M")
+        f"{n_blocks} blocks of {scene.life.block / 1e6:g} M cycles{shorter} to "
+        f"{scene.life.cycles / 1e6:g} M")
     progress = [None]
 
     def on_start(blocks: int, start: int) -> None:
@@ -215,6 +219,7 @@ def _cmd_check_env(args: argparse.Namespace) -> int:
 
 def _cmd_scene(args: argparse.Namespace) -> int:
     from micropit_hpc.scene import keys_markdown, load_scene
+    from micropit_hpc.study import life_blocks
 
     if args.help_keys:
         print(keys_markdown())
@@ -223,6 +228,7 @@ def _cmd_scene(args: argparse.Namespace) -> int:
         raise MicropitError("give a scene file to check, or --help-keys for the key reference")
     for path in args.scene:
         scene = load_scene(path)
+        life_blocks(scene)   # a life of too many blocks is refused here already
         if scene.gear is not None:
             pos = scene.positions
             n = pos.count if pos.kind == "count" else len(pos.values)

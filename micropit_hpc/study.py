@@ -33,7 +33,8 @@ from micropit_hpc.life import (
 from micropit_hpc.scene import Scene
 from micropit_hpc.surfaces import Topography
 
-__all__ = ["SUMMARY_COLUMNS", "ItemRun", "Study", "WorkItem", "summary_rows", "work_items"]
+__all__ = ["MAX_BLOCKS", "SUMMARY_COLUMNS", "ItemRun", "Study", "WorkItem", "block_cycles",
+           "life_blocks", "summary_rows", "work_items"]
 
 SUMMARY_COLUMNS = ("item", "position", "S", "p0_GPa", "Lambda", "k_lub_s", "body", "cycles",
                    "Ap_pct", "max_damage", "wear_um", "Rq_um")
@@ -69,6 +70,39 @@ def scaled_scene(scene: Scene, scale: float) -> Scene:
         return scene
     return replace(scene, body1=replace(scene.body1, Rq=scene.body1.Rq * scale),
                    body2=replace(scene.body2, Rq=scene.body2.Rq * scale))
+
+
+#: The most blocks a run may have: each block is a checkpoint row and a record per item.
+MAX_BLOCKS = 10_000
+#: A remainder below this fraction of a block is round-off of the decimal inputs, not a block.
+BLOCK_ROUND_OFF = 1e-9
+
+
+def life_blocks(scene: Scene) -> int:
+    """The number of blocks that reach exactly ``life.cycles``: ⌈cycles / ΔN⌉, the last one
+    shorter when ΔN does not divide the life (a remainder below 1e-9 ΔN is round-off). A scene
+    that would need more than :data:`MAX_BLOCKS` blocks is refused."""
+    life = scene.life
+    ratio = life.cycles / life.block
+    blocks = max(1, math.ceil(ratio * (1 - BLOCK_ROUND_OFF)))
+    if blocks > MAX_BLOCKS:
+        raise SceneError(scene.source, f"the life of {life.cycles / 1e6:g} M cycles in blocks "
+                         f"of {life.block / 1e6:g} M is {ratio:.4g} blocks, more than a run can "
+                         f"checkpoint and record ({MAX_BLOCKS})", key="life.block_M",
+                         value=life.block / 1e6,
+                         allowed=f"≥ life.cycles_M / {MAX_BLOCKS} = "
+                                 f"{life.cycles / 1e6 / MAX_BLOCKS:g}")
+    return blocks
+
+
+def block_cycles(scene: Scene, k: int) -> float:
+    """Cycles of block ``k`` (1-based) of :func:`life_blocks`: ΔN, and for the last block what
+    is left of the life (so that the cycles add up to life.cycles exactly)."""
+    life = scene.life
+    n = life_blocks(scene)
+    if not 1 <= k <= n:
+        raise MicropitError(f"block {k} outside 1 … {n}")
+    return life.block if k < n else life.cycles - (n - 1) * life.block
 
 
 def check_life_kinematics(scene: Scene, c) -> None:
@@ -169,7 +203,7 @@ class Study:
         self.mine = [self.items[i] for i in self.group.items(self.assignment)]
         self.runs: dict[int, ItemRun] = {}
         self._ra: dict[tuple[int, float], tuple[float, float]] = {}
-        self.blocks = max(1, round(scene.life.cycles / scene.life.block))
+        self.blocks = life_blocks(scene)
 
     def assign(self, costs: Sequence[float]) -> None:
         """Assign the items longest-first by ``costs`` (before :meth:`setup`)."""
@@ -186,9 +220,9 @@ class Study:
             self.runs[it.id] = ItemRun(self.scene, it, self.base, self.log, self.group.comm)
 
     def block_cycles(self, k: int) -> float:
-        """Cycles of block k (1-based): ΔN, the last block shortened to the life."""
-        life = self.scene.life
-        return min(life.block, life.cycles - (k - 1) * life.block)
+        """Cycles of block k (1-based): ΔN, the last block shortened so that the blocks add up
+        to exactly life.cycles (:func:`life_blocks`)."""
+        return block_cycles(self.scene, k)
 
     def run_block(self, k: int) -> dict[int, BlockRecord]:
         """Block k of every item of this group; returns {item id: record} on every rank of
