@@ -7,10 +7,11 @@ Errors the user can fix (bad scene files, a broken environment) are printed as o
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from micropit_hpc import __version__
-from micropit_hpc.errors import MicropitError
+from micropit_hpc.errors import MicropitError, collective
 from micropit_hpc.parallel import launcher_rank
 
 EXIT_USER_ERROR = 2
@@ -89,42 +90,109 @@ def _cmd_run(args: argparse.Namespace) -> int:
     import time
     from pathlib import Path
 
-    from micropit_hpc.io.results import write_results, write_summary
     from micropit_hpc.parallel import world
-    from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
+    from micropit_hpc.parallel.control import StopControl
     from micropit_hpc.parallel.failure import say
-    from micropit_hpc.parallel.petsc import init_petsc, option, options_left_warning, stage
-    from micropit_hpc.progress import NullProgress, Progress
-    from micropit_hpc.runner import RunOptions, run_study
-    from micropit_hpc.scene import load_scene
-    from micropit_hpc.study import SUMMARY_COLUMNS, block_cycles, life_blocks, summary_rows
+    from micropit_hpc.parallel.petsc import init_petsc
 
     comm = world()
     rank0 = comm.rank == 0
-    init_petsc(args.petsc_options)
-    scene = load_scene(args.scene)
-    out = Path(args.out)
-    if rank0:
-        try:
-            out.mkdir(parents=True, exist_ok=True)
-        except OSError as e:
-            raise MicropitError(f"cannot create --out {out}: {e.strerror or e}") from None
+    t0 = time.perf_counter()
 
     def log(msg: str) -> None:
         if rank0:
             say(f"# {msg}")
 
+    # From here on SIGUSR1/SIGTERM are noted, never fatal, until the results are written.
+    with StopControl(comm, None if args.stop_file is None else Path(args.stop_file),
+                     _default_budget(args.max_wall, log)) as control:
+        init_petsc(args.petsc_options)
+        return _run(args, comm, control, log, t0)
+
+
+def _default_budget(max_wall: float | None, log) -> float | None:
+    """--max-wall, or by default what is left of a Slurm job (SLURM_JOB_END_TIME) less
+    :data:`BUDGET_RESERVE_S` for the last checkpoint, the results and the shutdown."""
+    import os
+    import time
+
+    if max_wall is not None:
+        return max_wall
+    end = os.environ.get("SLURM_JOB_END_TIME", "")
+    if end.isdigit():
+        left = int(end) - time.time() - BUDGET_RESERVE_S
+        if left > 0:
+            log(f"wall-time budget {left:.0f} s: the Slurm job ends at {end} "
+                f"(SLURM_JOB_END_TIME), less {BUDGET_RESERVE_S:g} s kept for the shutdown")
+            return left
+    return None
+
+
+#: Seconds kept free at the end of a Slurm job's time by the default wall-time budget.
+BUDGET_RESERVE_S = 120.0
+
+
+def _int_option(name: str, default: int) -> int:
+    """A positive whole-number PETSc-style option ``-name``, or a one-line error."""
+    from micropit_hpc.parallel.petsc import option
+
+    raw = option(name, None, str)
+    if raw is None:
+        return default
+    text = str(raw).strip()
+    if not text.isdigit() or int(text) < 1:
+        raise collective(MicropitError(f"-{name} {text}: expected a whole number ≥ 1"))
+    return int(text)
+
+
+def _run(args, comm, control, log, t0) -> int:
+    from pathlib import Path
+
+    from micropit_hpc.io import outdir
+    from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
+    from micropit_hpc.parallel.petsc import options_left_warning
+    from micropit_hpc.runner import RunOptions
+    from micropit_hpc.scene import load_scene
+    from micropit_hpc.study import life_blocks
+
+    if args.force and not args.restart:
+        raise collective(MicropitError("--force only applies with --restart (it accepts a "
+                                       "checkpoint written for another scene)"))
+    if args.overwrite and args.restart:
+        raise collective(MicropitError("--overwrite deletes the checkpoints that --restart "
+                                       "would continue from: give one of them"))
+    scene = load_scene(args.scene)
+    out = Path(args.out)
     opts = RunOptions(
         out=out, positions=None if args.position is None else tuple(args.position),
         ranks_per_item=args.ranks_per_item, restart=args.restart, force=args.force,
-        max_wall_s=args.max_wall, stop_file=None if args.stop_file is None
-        else Path(args.stop_file), keep=option("micropit_checkpoint_keep", 3),
-        checkpoint_every=option("micropit_checkpoint_every", 1))
-    if opts.keep < 1 or opts.checkpoint_every < 1:
-        raise MicropitError("-micropit_checkpoint_keep and -micropit_checkpoint_every must be "
-                            f"at least 1, got {opts.keep} and {opts.checkpoint_every}")
-    t0 = time.perf_counter()
+        max_wall_s=control.max_wall_s, stop_file=control.stop_file,
+        keep=_int_option("micropit_checkpoint_keep", 3),
+        checkpoint_every=_int_option("micropit_checkpoint_every", 1))
     n_blocks = life_blocks(scene)
+    lock = outdir.prepare(out, comm, restart=args.restart, overwrite=args.overwrite, log=log)
+    try:
+        status = _run_locked(args, comm, control, log, t0, scene, opts, n_blocks)
+    finally:
+        if lock is not None:
+            lock.release()
+    options_left_warning(comm)
+    return EXIT_CHECKPOINTED if status == "stopped" else 0
+
+
+def _run_locked(args, comm, control, log, t0, scene, opts, n_blocks) -> str:
+    """The run itself, in a locked output folder; returns "done" or "stopped"."""
+    import time
+
+    from micropit_hpc.io import outdir
+    from micropit_hpc.io.results import write_results, write_summary
+    from micropit_hpc.parallel.petsc import stage
+    from micropit_hpc.progress import NullProgress, Progress
+    from micropit_hpc.runner import run_study
+    from micropit_hpc.study import SUMMARY_COLUMNS, block_cycles, summary_rows
+
+    rank0 = comm.rank == 0
+    out = opts.out
     last = block_cycles(scene, n_blocks)
     shorter = (f", the last of {last / 1e6:g} M" if last != scene.life.block else "")
     log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item, "
@@ -165,7 +233,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         progress[0].update(k, f"{k * len(records)} item-blocks of {blocks * len(records)}, "
                               f"max A_p body 1 {ap:.3g} %")
 
-    outcome = run_study(scene, opts, comm, log, on_block, on_start)
+    outcome = run_study(scene, opts, comm, log, on_block, on_start, control=control)
     if progress[0] is not None:
         progress[0].close()
     study = outcome.study
@@ -180,13 +248,32 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     "wall_s": time.perf_counter() - t0, "status": outcome.status,
                     "blocks_done": outcome.blocks_done, "restarted_from_block":
                     outcome.start_block}
-            csv = write_summary(out / "summary.csv", SUMMARY_COLUMNS, rows)
-            h5 = write_results(out / "results.h5", study, outcome.records, maps, meta)
+            staged = outdir.staging(out)
+            write_summary(staged / "summary.csv", SUMMARY_COLUMNS, rows)
+            write_results(staged / "results.h5", study, outcome.records, maps, meta)
+            try:
+                manifest = outdir.publish(out, ("summary.csv", "results.h5"), {
+                    "status": outcome.status, "blocks_done": outcome.blocks_done,
+                    "blocks": study.blocks, "run_id": outcome.run_id})
+            except OSError as e:
+                raise MicropitError(f"cannot publish the results in {out}: "
+                                    f"{e.strerror or e}") from None
             what = ("results" if outcome.status == "done"
                     else f"partial results (block {outcome.blocks_done} of {study.blocks})")
-            log(f"wrote {what}: {csv} and {h5} in {time.perf_counter() - t0:.1f} s")
-    options_left_warning(comm)
-    return EXIT_CHECKPOINTED if outcome.status == "stopped" else 0
+            log(f"wrote {what}: {out / 'summary.csv'} and {out / 'results.h5'} ({manifest}) "
+                f"in {time.perf_counter() - t0:.1f} s")
+    if outcome.status == "done" and control.signal_received:
+        log(f"signal {control.signal_received} arrived after the last block; the results are "
+            "complete")
+    return outcome.status
+
+
+def _out_dir(text: str) -> str:
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a folder name, got an empty one (a run "
+                                         "never writes into the current folder by accident; "
+                                         "give --out . for that)")
+    return text
 
 
 def _wall_time(text: str) -> float:
@@ -206,8 +293,9 @@ def _wall_time(text: str) -> float:
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected seconds or [D-]H:M:S, got {text!r}") from None
-    if secs <= 0:
-        raise argparse.ArgumentTypeError(f"the wall-time budget must be positive, got {text!r}")
+    if not math.isfinite(secs) or secs <= 0:
+        raise argparse.ArgumentTypeError(f"the wall-time budget must be a positive, finite "
+                                         f"time, got {text!r}")
     return secs
 
 
@@ -298,21 +386,30 @@ def build_parser() -> argparse.ArgumentParser:
                                    "roughness scales × patches) on all ranks, and write "
                                    "DIR/summary.csv and DIR/results.h5 (docs/outputs.md).")
     p.add_argument("scene", metavar="SCENE", help="scene file (TOML)")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--out", required=True, type=_out_dir, metavar="DIR",
+                   help="output folder: one run's; locked while the run lives; refused if it "
+                        "holds another run's results or checkpoints (see --restart, "
+                        "--overwrite)")
     p.add_argument("--position", type=_positive_int, action="append", default=None,
                    metavar="K", help="only position K (repeat for several; default all)")
     p.add_argument("--ranks-per-item", type=_positive_int, default=1, metavar="R",
                    help="ranks per work item: each item's window is split over R ranks "
                         "(default 1: items spread over all ranks)")
     p.add_argument("--restart", action="store_true",
-                   help="resume from the newest complete checkpoint in DIR/checkpoints "
-                        "(any number of ranks); start afresh if there is none")
+                   help="resume from the checkpoint DIR/checkpoints/LATEST names (any number "
+                        "of ranks), after verifying it; a damaged one falls back to the "
+                        "previous good one; start afresh if there is none")
+    p.add_argument("--overwrite", action="store_true",
+                   help="delete the results and checkpoints of a previous run in DIR and "
+                        "start afresh (without it a fresh run refuses such a folder)")
     p.add_argument("--force", action="store_true",
                    help="with --restart: accept a checkpoint written for a different scene "
                         "(the work items and window must still match)")
     p.add_argument("--max-wall", type=_wall_time, default=None, metavar="TIME",
                    help="wall-time budget (seconds or [D-]H:M:S): stop at the block "
-                        "boundary where the next block would overrun it, checkpoint, exit 85")
+                        "boundary where the next block (1.2 × the longest so far, plus a "
+                        "checkpoint) would overrun it, checkpoint, exit 85. Default under "
+                        "Slurm: the job's end (SLURM_JOB_END_TIME) less 120 s")
     p.add_argument("--stop-file", default=None, metavar="FILE",
                    help="stop at the next block boundary once FILE exists (checkpoint, "
                         "exit 85)")

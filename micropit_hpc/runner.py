@@ -55,6 +55,8 @@ __all__ = ["RECORD_FIELDS", "RunOptions", "RunOutcome", "record_from_row", "reco
            "run_study"]
 
 CHECKPOINT_DIR = "checkpoints"
+#: The wall-time budget reserves this many times the longest block so far for the next one.
+NEXT_BLOCK_MARGIN = 1.2
 
 #: Columns of the ``records`` checkpoint field: BlockRecord's fields, pairs flattened.
 RECORD_FIELDS = ("block", "cycles", "sub_blocks", "phi", "wall_s", "Ap1", "Ap2",
@@ -111,6 +113,7 @@ class RunOutcome:
     records: dict[int, list[BlockRecord]]
     reason: str | None
     study: Study
+    run_id: str | None = None
 
 
 def _field_specs(study: Study) -> list[FieldSpec]:
@@ -335,10 +338,14 @@ def _inspect(path: Path, study: Study, scene: Scene, force: bool,
 def run_study(scene: Scene, opts: RunOptions, comm,
               log: Callable[[str], None] = lambda s: None,
               on_block: Callable[[int, int, dict], None] | None = None,
-              on_start: Callable[[int, int], None] | None = None) -> RunOutcome:
+              on_start: Callable[[int, int], None] | None = None,
+              control: StopControl | None = None) -> RunOutcome:
     """Run (or resume) every work item of ``scene`` on ``comm`` (collective). ``on_start``
     is called on every rank before the first block with (blocks, blocks already done),
-    ``on_block`` after each block with (block, blocks, records)."""
+    ``on_block`` after each block with (block, blocks, records). ``control``: the stop
+    control to ask at each block boundary (default: one made here from ``opts``, closed at
+    the end; the CLI passes its own, which keeps the signals handled until the results are
+    written)."""
     rank0 = comm.rank == 0
     ckdir = Path(opts.out) / CHECKPOINT_DIR
     latest = None
@@ -378,7 +385,11 @@ def run_study(scene: Scene, opts: RunOptions, comm,
     done, reason, written = start, None, start
     if on_start is not None:
         on_start(study.blocks, start)
-    with StopControl(comm, opts.stop_file, opts.max_wall_s) as control:
+    own = control is None
+    if own:
+        control = StopControl(comm, opts.stop_file, opts.max_wall_s)
+    longest, ckpt_s = 0.0, 0.0   # the longest block (with its checkpoint), the last checkpoint
+    try:
         for k in range(start + 1, study.blocks + 1):
             t0 = time.perf_counter()
             with stage("blocks"):
@@ -386,19 +397,26 @@ def run_study(scene: Scene, opts: RunOptions, comm,
                     records[iid].append(rec)
             done = k
             if k % opts.checkpoint_every == 0 or k == study.blocks:
+                t1 = time.perf_counter()
                 checkpoint(k)
-                written = k
+                written, ckpt_s = k, time.perf_counter() - t1
             if on_block is not None:
                 on_block(k, study.blocks, records)
             if k == study.blocks:
                 break
-            reason = control.reason(next_block_s=time.perf_counter() - t0)
+            longest = max(longest, time.perf_counter() - t0)
+            # the next block may be longer than any so far (adaptive splits): 20 % margin,
+            # plus a checkpoint for the stop itself
+            reason = control.reason(next_block_s=NEXT_BLOCK_MARGIN * longest + ckpt_s)
             if reason:
                 if written != k:
                     checkpoint(k)
                 log(f"stopping after block {k} of {study.blocks}: {reason}; checkpoint "
                     f"{ckdir / checkpoint_name(k)} written; continue with --restart")
-                return RunOutcome("stopped", done, start, records, reason, study)
+                return RunOutcome("stopped", done, start, records, reason, study, run_id)
+    finally:
+        if own:
+            control.close()
     if start == study.blocks:
         log(f"the checkpoint is already at the last block ({start}); writing the results")
-    return RunOutcome("done", done, start, records, None, study)
+    return RunOutcome("done", done, start, records, None, study, run_id)
