@@ -5,7 +5,9 @@
 # Environment:
 #   NP=N               ranks (default 2)
 #   OUT_DIR=DIR        output folder (default runs/<scene name>)
-#   RESTART=1          continue from the newest checkpoint in OUT_DIR/checkpoints
+#   RESTART=1          continue from the checkpoint OUT_DIR/checkpoints/LATEST names
+#   OVERWRITE=1        delete a previous run's results and checkpoints in OUT_DIR first (a
+#                      fresh run refuses a folder holding them)
 #   RUN_ARGS="..."     more `micropit run` arguments (--ranks-per-item 2, --max-wall 1:00:00,
 #                      -log_view, ...)
 #   MICROPIT_PYTHON    the interpreter (default .venv/bin/python from scripts/setup.sh)
@@ -26,6 +28,7 @@ echo "== micropit check-env on $np ranks"
 mpirun -n "$np" "$py" -m micropit_hpc check-env --expect-ranks "$np"
 args=(run "$scene" --out "$out" --stop-file "$out/STOP")
 [[ "${RESTART:-0}" == 1 ]] && args+=(--restart)
+[[ "${OVERWRITE:-0}" == 1 ]] && args+=(--overwrite)
 # shellcheck disable=SC2206  # RUN_ARGS is split on purpose
 [[ -z "${RUN_ARGS:-}" ]] || args+=(${RUN_ARGS})
 echo "== micropit ${args[*]} on $np ranks"

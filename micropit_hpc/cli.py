@@ -103,11 +103,15 @@ def _cmd_run(args: argparse.Namespace) -> int:
         if rank0:
             say(f"# {msg}")
 
-    # From here on SIGUSR1/SIGTERM are noted, never fatal, until the results are written.
-    with StopControl(comm, None if args.stop_file is None else Path(args.stop_file),
-                     _default_budget(args.max_wall, log)) as control:
+    # From here on SIGUSR1/SIGTERM are noted, never fatal, until the results are written; a
+    # process started as the `micropit` command then ignores them until it exits.
+    control = StopControl(comm, None if args.stop_file is None else Path(args.stop_file),
+                          _default_budget(args.max_wall, log))
+    try:
         init_petsc(args.petsc_options)
         return _run(args, comm, control, log, t0)
+    finally:
+        control.close(final=args.process_entry)
 
 
 def _default_budget(max_wall: float | None, log) -> float | None:
@@ -447,6 +451,7 @@ def main(argv: list[str] | None = None) -> int:
         if args.command != "run" or (bad and not _petsc_values_ok(extra)):
             parser.error(f"unrecognized arguments: {' '.join(extra)}")
     args.petsc_options = extra
+    args.process_entry = argv is None   # the command itself, not a call from Python
     try:
         return args.func(args)
     except (Exception, KeyboardInterrupt) as e:  # every error ends the job
