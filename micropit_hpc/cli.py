@@ -152,6 +152,7 @@ def _int_option(name: str, default: int) -> int:
 def _run(args, comm, control, log, t0) -> int:
     from pathlib import Path
 
+    from micropit_hpc import estimate
     from micropit_hpc.io import outdir
     from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
     from micropit_hpc.parallel.petsc import options_left_warning
@@ -174,6 +175,8 @@ def _run(args, comm, control, log, t0) -> int:
         keep=_int_option("micropit_checkpoint_keep", 3),
         checkpoint_every=_int_option("micropit_checkpoint_every", 1))
     n_blocks = life_blocks(scene)
+    estimate.check(scene, comm, args.ranks_per_item, opts.positions, n_blocks, log,
+                   ignore_memory=args.ignore_memory_estimate)
     lock = outdir.prepare(out, comm, restart=args.restart, overwrite=args.overwrite, log=log)
     try:
         status = _run_locked(args, comm, control, log, t0, scene, opts, n_blocks)
@@ -414,6 +417,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "boundary where the next block (1.2 × the longest so far, plus a "
                         "checkpoint) would overrun it, checkpoint, exit 85. Default under "
                         "Slurm: the job's end (SLURM_JOB_END_TIME) less 120 s")
+    p.add_argument("--ignore-memory-estimate", action="store_true",
+                   help="run even when the up-front memory estimate (printed) exceeds the "
+                        "memory available on this node")
     p.add_argument("--stop-file", default=None, metavar="FILE",
                    help="stop at the next block boundary once FILE exists (checkpoint, "
                         "exit 85)")
