@@ -132,3 +132,25 @@ def test_an_error_every_rank_raises_is_printed_once_without_abort(tmp_path, args
     assert len(lines) == 1 and text in lines[0], err
     assert "MPI_ABORT" not in err
     assert secs < LIMIT_S / 2
+
+
+@pytest.mark.timeout(180)
+def test_a_damaged_checkpoint_under_mpirun_falls_back(tmp_path):
+    """The issue's reproduction: flipped bits in the heights of the newest checkpoint used to
+    hang both ranks; now rank 0 skips it (saying why) and both resume from the one before."""
+    import h5py
+
+    path = scene(tmp_path, cycles_M=3.0)
+    out = tmp_path / "out"
+    rc, err, _ = mpirun(["run", path, "--out", out])
+    assert rc == 0, err
+    ck = out / "checkpoints" / "ckpt_000003.h5"
+    with h5py.File(ck, "r") as f:
+        info = f["body1/heights"].id.get_chunk_info(0)
+    with open(ck, "r+b") as fh:
+        fh.seek(info.byte_offset + 100)
+        fh.write(b"\xff" * 16)
+    rc, err, _ = mpirun(["run", path, "--out", out, "--restart"])
+    assert rc == 0, err
+    assert f"skipped {ck}" in err and "block 2 of 3" in err
+    assert err.count("skipped") == 1 and "Traceback" not in err

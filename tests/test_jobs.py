@@ -120,3 +120,29 @@ def test_a_signal_while_the_results_are_written_is_harmless(tmp_path):
     assert p.returncode == 0, p.stderr
     assert "signal 10 arrived after the last block; the results are complete" in p.stderr
     assert outdir.check_manifest(out) is None
+
+
+def test_the_budget_reserves_the_longest_measured_block_plus_a_checkpoint(tmp_path):
+    """The stop decision is asked with 1.2 × the longest block so far (its checkpoint
+    included) plus the last checkpoint's time: measured, not a fixed margin."""
+    from micropit_hpc.parallel import SerialComm
+    from micropit_hpc.runner import NEXT_BLOCK_MARGIN, RunOptions, run_study
+    from micropit_hpc.scene import scene_from_dict
+
+    asked = []
+
+    class Control:
+        max_wall_s, stop_file, signal_received = None, None, 0
+
+        def reason(self, next_block_s=0.0):
+            asked.append(next_block_s)
+            return None
+
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["life"]["cycles_M"] = 3.0
+    sc = scene_from_dict(doc, "t.toml")
+    o = run_study(sc, RunOptions(out=tmp_path), SerialComm(), control=Control())
+    walls = [r.wall_s for r in o.records[0]]
+    assert len(asked) == 2            # after blocks 1 and 2, not after the last
+    assert asked[0] > NEXT_BLOCK_MARGIN * walls[0]
+    assert asked[1] >= asked[0] * 0.5 and asked[1] > NEXT_BLOCK_MARGIN * max(walls[:2])

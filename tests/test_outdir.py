@@ -93,7 +93,7 @@ def test_a_live_lock_refuses_the_folder(finished, tmp_path, capsys):
     assert not (out / "summary.csv").exists()
 
 
-@pytest.mark.parametrize("case", ["dead pid", "old", "same job", "garbage"])
+@pytest.mark.parametrize("case", ["dead pid", "reused pid", "old", "same job", "garbage"])
 def test_a_stale_lock_is_taken_over_with_a_message(finished, tmp_path, capsys, monkeypatch,
                                                    case):
     scene, _ = finished
@@ -102,6 +102,8 @@ def test_a_stale_lock_is_taken_over_with_a_message(finished, tmp_path, capsys, m
         p = subprocess.Popen([sys.executable, "-c", "pass"])
         p.wait()
         write_lock(out, host=socket.gethostname(), pid=p.pid, job=None)
+    elif case == "reused pid":   # our own pid, but a lock written by an earlier process
+        write_lock(out, host=socket.gethostname(), pid=os.getpid(), pid_start="1", job=None)
     elif case == "old":
         write_lock(out, age_s=outdir.STALE_S + 60, host="elsewhere", pid=1, job=None)
     elif case == "same job":

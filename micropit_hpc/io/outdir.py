@@ -52,6 +52,15 @@ def _fsync_dir(path: Path) -> None:
         os.close(fd)
 
 
+def _start_time(pid: int) -> str | None:
+    """The start time of process ``pid`` (Linux /proc, clock ticks since boot), or None."""
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[19]
+    except (OSError, IndexError):
+        return None
+
+
 def _pid_alive(pid: int) -> bool:
     try:
         os.kill(pid, 0)
@@ -72,6 +81,9 @@ def stale_reason(info: dict, age_s: float) -> str | None:
         pid = info.get("pid")
         if isinstance(pid, int) and not _pid_alive(pid):
             return f"its process {pid} on {info['host']} is gone"
+        started = info.get("pid_start")
+        if isinstance(pid, int) and started and _start_time(pid) not in (None, started):
+            return f"its process {pid} on {info['host']} is gone (the pid is another process now)"
     if age_s > STALE_S:
         return f"not refreshed for {age_s:.0f} s (a live run refreshes it every {HEARTBEAT_S:g} s)"
     return None
@@ -87,7 +99,8 @@ class OutputLock:
         self._thread: threading.Thread | None = None
 
     def acquire(self) -> None:
-        info = {"host": socket.gethostname(), "pid": os.getpid(), "job": _job_id(),
+        info = {"host": socket.gethostname(), "pid": os.getpid(),
+                "pid_start": _start_time(os.getpid()), "job": _job_id(),
                 "started_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")}
         for _attempt in range(3):
             try:
