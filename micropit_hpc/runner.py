@@ -40,8 +40,8 @@ from micropit_hpc.io.checkpoint import (
     Piece,
     checkpoint_name,
     find_latest,
+    read_attrs,
     read_checkpoint,
-    verify_checkpoint,
     write_checkpoint,
 )
 from micropit_hpc.io.hdf5 import h5py_module, scene_json
@@ -317,7 +317,7 @@ def _inspect(path: Path, study: Study, scene: Scene, force: bool,
     answer = (None, None, None)
     if comm.rank == 0:
         try:
-            attrs = verify_checkpoint(path)
+            attrs = read_attrs(path)   # verified by find_latest
             _check_compatible(path, attrs, study, scene, force, surfaces)
             done = int(attrs["block"])
             if done > study.blocks:

@@ -449,6 +449,16 @@ def verify_checkpoint(path: str | Path, expect: Expected | None = None) -> dict[
     return attrs
 
 
+def read_attrs(path: str | Path) -> dict[str, Any]:
+    """The attributes of a checkpoint that :func:`find_latest` has verified already (no data
+    is read). Serial, any rank."""
+    try:
+        with _h5py().File(path, "r") as f:
+            return {k: _decode_attr(v) for k, v in f.attrs.items()}
+    except Exception as e:  # the file changed since it was verified
+        raise CheckpointError(f"{path}: unreadable checkpoint ({type(e).__name__}: {e})") from e
+
+
 def _check_layout(path: Path, f, attrs: dict[str, Any], expect: Expected) -> None:
     missing = [a for a in expect.attrs if a not in attrs]
     if missing:
