@@ -55,7 +55,8 @@ def test_a_fresh_run_into_a_finished_folder_is_refused(finished, tmp_path, capsy
     capsys.readouterr()
     assert run(scene, out) == 2
     err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "holds another run's results or checkpoints" in err
+    errors = [ln for ln in err.splitlines() if ln.startswith("micropit: error:")]
+    assert len(errors) == 1 and "holds another run's results or checkpoints" in errors[0]
     assert "summary.csv" in err and "--restart" in err and "--overwrite" in err
     assert (out / "summary.csv").read_bytes() == before
     # --overwrite clears the old run (stale checkpoints included) and runs afresh
