@@ -508,8 +508,8 @@ def _fail(e: BaseException, debug: bool) -> int:
             say(f"micropit: error: {text}")
         if _wait_for_all(comm, COLLECTIVE_EXIT_WAIT_S):
             return code
-        e = MicropitError(f"the error above reached this rank but not every rank within "
-                          f"{COLLECTIVE_EXIT_WAIT_S:g} s; aborting the job")
+        e = MicropitError(f"{text} (the other ranks did not meet this error within "
+                          f"{COLLECTIVE_EXIT_WAIT_S:g} s; aborting the job)")
     abort_job(e, comm, debug)
     return code  # not reached
 

@@ -232,10 +232,14 @@ class Study:
             try:
                 rec = self.runs[it.id].run_block(self.block_cycles(k))
             except MicropitError as e:   # say which item failed: the scene may hold dozens
-                raise MicropitError(
+                err = MicropitError(
                     f"{self.scene.source}: item {it.id} (position {it.position}, k_lub "
                     f"{it.k_lub:g} s, roughness × {it.scale:g}, patch {it.patch}), block {k}: "
-                    f"{e}") from e
+                    f"{e}")
+                # the ranks of a group mostly meet an item's error together: the group root
+                # reports it, the others leave it the time to (micropit_hpc.parallel.failure)
+                err.group_member = self.group.comm.size > 1 and not self.group.is_root
+                raise err from e
             if self.group.is_root:
                 local[it.id] = rec
         gathered = self.comm.allgather(local)

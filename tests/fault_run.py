@@ -7,6 +7,8 @@ WHERE:
 * ``checkpoint``: rank RANK fails inside the collective checkpoint write (after its data);
 * ``results``: rank RANK fails while the results are written (rank 0 writes them);
 * ``internal``: rank RANK raises a KeyError (a bug) in the middle of block 1;
+* ``collective``: rank RANK alone raises an error marked collective (a wrong marking: the
+  safety net must still end the job);
 * ``none``: no fault.
 """
 
@@ -44,6 +46,12 @@ def main() -> int:
         def bad_results(path, *a, **k):
             raise MicropitError(f"injected fault: cannot write {path}")
         res.write_results = bad_results
+    elif me == rank and where == "collective":
+        from micropit_hpc.errors import collective
+
+        def bad_pieces(*a, **k):
+            raise collective(MicropitError("injected fault: a collective error on one rank"))
+        runner._pieces = bad_pieces
     elif me == rank and where == "internal":
         run_block = study.ItemRun.run_block
 

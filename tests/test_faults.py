@@ -79,6 +79,35 @@ def test_a_solver_failure_on_one_rank_ends_the_job(tmp_path):
 
 
 @pytest.mark.timeout(120)
+def test_a_solver_failure_in_a_group_of_two_ranks_ends_the_job(tmp_path):
+    """--ranks-per-item 2: the group root fails in the contact solve while its partner waits
+    for the step's fields."""
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["lubrication"] = {"max_iterations": 10, "tolerance": 1e-14}
+    path = _write_scene(tmp_path / "bad.toml", doc)
+    rc, err, secs = mpirun(["run", path, "--out", tmp_path / "out", "--ranks-per-item", "2"])
+    assert rc == 2, err
+    lines = error_lines(err)
+    assert len(lines) == 1 and "rank 0 of 2" in lines[0] and "did not converge" in lines[0]
+    assert secs < LIMIT_S / 2
+
+
+@pytest.mark.timeout(120)
+def test_an_error_wrongly_marked_collective_still_ends_the_job(tmp_path):
+    """The safety net: an error marked collective that only rank 1 meets waits
+    COLLECTIVE_EXIT_WAIT_S for the others, then aborts, and its message is printed once."""
+    from micropit_hpc.cli import COLLECTIVE_EXIT_WAIT_S
+
+    rc, err, secs = mpirun(["run", scene(tmp_path), "--out", tmp_path / "out"],
+                           ("collective", 1))
+    assert rc == 2, err
+    lines = error_lines(err)
+    assert len(lines) == 1 and "rank 1 of 2: injected fault: a collective error" in lines[0]
+    assert f"within {COLLECTIVE_EXIT_WAIT_S:g} s" in lines[0]
+    assert COLLECTIVE_EXIT_WAIT_S <= secs < COLLECTIVE_EXIT_WAIT_S + 30
+
+
+@pytest.mark.timeout(120)
 def test_a_bug_on_rank_1_mid_block_ends_the_job_with_its_traceback_once(tmp_path):
     rc, err, _ = mpirun(["run", scene(tmp_path), "--out", tmp_path / "out"], ("internal", 1))
     assert rc == 1, err

@@ -46,9 +46,21 @@ def is_bug(e: BaseException) -> bool:
     return not isinstance(e, MicropitError | MemoryError | KeyboardInterrupt)
 
 
+#: Seconds a non-root rank of a group waits before reporting an error of its group's item
+#: itself (the root, which met it too, normally reports it and aborts the job first).
+GROUP_MEMBER_WAIT_S = 5.0
+
+
 def abort_job(e: BaseException, comm, debug: bool = False) -> None:
     """Print ``e`` on this rank (its traceback too if it is a bug or ``debug``) and end every
-    rank of ``comm``'s job with ``MPI_Abort``. Does not return."""
+    rank of ``comm``'s job with ``MPI_Abort``. Does not return. An error marked
+    ``group_member`` (a non-root rank of a work item's group) is reported only if the group
+    root has not ended the job within :data:`GROUP_MEMBER_WAIT_S`: so the message appears
+    once."""
+    import time
+
+    if getattr(e, "group_member", False):
+        time.sleep(GROUP_MEMBER_WAIT_S)
     text, code = one_line(e)
     if debug or is_bug(e):
         traceback.print_exception(e)
