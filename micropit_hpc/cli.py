@@ -349,13 +349,25 @@ def _petsc_values_ok(extra: list[str]) -> bool:
     return not any(a.startswith("--") for a in extra)
 
 
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose usage errors are printed once under a launcher (by the rank the
+    launcher numbers 0; every rank parses the same command line, before MPI starts)."""
+
+    def error(self, message: str):
+        if launcher_rank() == 0:
+            self.print_usage(sys.stderr)
+            sys.stderr.write(f"{self.prog}: error: {message}\n")
+            sys.stderr.flush()
+        raise SystemExit(2)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    common = argparse.ArgumentParser(add_help=False)
+    common = _Parser(add_help=False)
     # SUPPRESS: a subcommand's parser must not reset a --debug given before the subcommand (the
     # action object is shared by every parser built from `common`: never set_defaults(debug=))
     common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                         help="show the Python traceback of errors")
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="micropit", parents=[common],
         description="Micropitting of rough, lubricated rolling-sliding contacts (gears, disc "
                     "rigs). Scene keys: micropit scene --help-keys.")

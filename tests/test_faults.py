@@ -183,3 +183,13 @@ def test_a_damaged_checkpoint_under_mpirun_falls_back(tmp_path):
     assert rc == 0, err
     assert f"skipped {ck}" in err and "block 2 of 3" in err
     assert err.count("skipped") == 1 and "Traceback" not in err
+
+
+@pytest.mark.timeout(60)
+def test_a_usage_error_under_mpirun_is_printed_once(tmp_path):
+    rc, err, _ = mpirun(["run", scene(tmp_path), "--out", tmp_path / "out", "--max-wall", "nan"])
+    assert rc == 2, err
+    assert err.count("error: argument --max-wall: the wall-time budget must be a positive, "
+                     "finite time, got 'nan'") == 1, err
+    assert err.count("usage:") == 1
+
