@@ -1,8 +1,15 @@
 # Sourced by the batch scripts (jobs/slurm_array.sh, jobs/pbs.sh); needs their log().
 #
 # run_forwarding NOTE CMD...: run CMD (the launcher: mpirun or srun) in the background and wait
-# for it, forwarding SIGUSR1 and SIGTERM to it; sets rc to its exit status. NOTE is added to the
-# log line of a forwarded SIGUSR1 (e.g. "time limit near").
+# for it; a SIGUSR1 or SIGTERM received by this batch shell is delivered to the ranks as SIGUSR1;
+# sets rc to CMD's exit status. NOTE is added to the log line of a SIGUSR1 (e.g. "time limit
+# near").
+#
+# Why SIGUSR1 for both: the ranks stop at the next block boundary with a checkpoint and exit 85
+# on either signal, but the launchers treat SIGTERM as "kill the job": Open MPI's mpirun sends
+# SIGTERM then SIGKILL to the ranks at once (no checkpoint, exit 1, not requeued), whereas it
+# relays SIGUSR1 (and srun both) to every rank on every node untouched. So the stop request
+# travels as SIGUSR1 through the launcher's relay path, never through its kill path.
 #
 # Why this shape: bash runs a trap only between commands or during `wait`, so the launcher runs
 # in the background. The signal goes to the launcher only: mpirun and srun both relay SIGUSR1 to
@@ -31,6 +38,6 @@ run_forwarding() {
 
 _forward() {
     _forward_got=1
-    log "SIG$1${2:+ ($2)}: asking the run to checkpoint and stop"
-    kill "-$1" "$_forward_pid" 2>/dev/null || true
+    log "SIG$1${2:+ ($2)}: asking the ranks to checkpoint and stop (SIGUSR1 through the launcher)"
+    kill -USR1 "$_forward_pid" 2>/dev/null || true
 }

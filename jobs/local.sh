@@ -5,7 +5,11 @@
 # Environment:
 #   NP=N               ranks (default 2)
 #   OUT_DIR=DIR        output folder (default runs/<scene name>)
-#   RESTART=1          continue from the newest checkpoint in OUT_DIR/checkpoints
+#   RESTART=1          continue from the checkpoint OUT_DIR/checkpoints/LATEST names
+#   OVERWRITE=1|0      without RESTART=1: replace a previous run's results and checkpoints in
+#                      OUT_DIR (default 1 here, said in the log: the example is meant to be run
+#                      again); OVERWRITE=0 passes no --overwrite, so `micropit run` refuses a
+#                      folder holding another run's files
 #   RUN_ARGS="..."     more `micropit run` arguments (--ranks-per-item 2, --max-wall 1:00:00,
 #                      -log_view, ...)
 #   MICROPIT_PYTHON    the interpreter (default .venv/bin/python from scripts/setup.sh)
@@ -26,6 +30,12 @@ echo "== micropit check-env on $np ranks"
 mpirun -n "$np" "$py" -m micropit_hpc check-env --expect-ranks "$np"
 args=(run "$scene" --out "$out" --stop-file "$out/STOP")
 [[ "${RESTART:-0}" == 1 ]] && args+=(--restart)
+if [[ "${RESTART:-0}" != 1 && "${OVERWRITE:-1}" == 1 ]]; then
+    if [[ -e "$out/summary.csv" || -e "$out/results.h5" || -e "$out/checkpoints/LATEST" ]]; then
+        echo "== $out holds a previous run: replacing it (--overwrite; OVERWRITE=0 refuses, RESTART=1 continues it)"
+    fi
+    args+=(--overwrite)
+fi
 # shellcheck disable=SC2206  # RUN_ARGS is split on purpose
 [[ -z "${RUN_ARGS:-}" ]] || args+=(${RUN_ARGS})
 echo "== micropit ${args[*]} on $np ranks"

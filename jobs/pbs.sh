@@ -15,7 +15,10 @@
 #      seconds later). So the run gets a budget instead: --max-wall = walltime - MARGIN_S - the
 #      time this script has used so far. At each block boundary the ranks stop when the next
 #      block would overrun the budget, write a checkpoint and exit with code 85.
-#      MARGIN_S (default 600 s) must cover one checkpoint write plus MPI start-up and shutdown.
+#      The next block's duration is measured (1.2 × the longest block so far plus one
+#      checkpoint), so MARGIN_S (default 300 s) only has to cover writing the results and MPI
+#      shutdown. A SIGTERM (qdel, the limit) or `qsig -s USR1` reaches the ranks as SIGUSR1
+#      (jobs/forward.sh): checkpoint at the next block boundary and exit 85.
 #   3. `micropit run SCENE --out DIR --restart --max-wall S --stop-file DIR/STOP`: --restart
 #      continues from the newest complete checkpoint in DIR (a fresh start when there is none).
 #   4. On exit code 85 the script submits itself again (`qsub`), with the same variables and a
@@ -34,7 +37,7 @@
 #   OUT_DIR=DIR           output and checkpoints (default runs/<scene name>)
 #   NP=N                  ranks (default: the lines of $PBS_NODEFILE, i.e. mpiprocs in total)
 #   WALLTIME=HH:MM:SS     the job's wall-time limit (default: read from qstat -f)
-#   MARGIN_S=SECONDS      kept free at the end of the wall time (default 600)
+#   MARGIN_S=SECONDS      kept free at the end of the wall time (default 300)
 #   MAX_RESUBMITS=N       the longest chain of resubmissions (default 50; runaway protection)
 #   QSUB_ARGS="..."       extra qsub options for the resubmission (e.g. "-q long -A proj")
 #   MICROPIT_PYTHON=PATH  the interpreter (default .venv/bin/python from scripts/setup.sh)
@@ -94,7 +97,7 @@ if [[ -z "$walltime" && -n "${PBS_JOBID:-}" ]] && command -v qstat >/dev/null; t
     walltime=$(qstat -f "$PBS_JOBID" 2>/dev/null | sed -n 's/^ *Resource_List.walltime = //p' | head -n 1)
 fi
 [[ -n "$walltime" ]] || die "unknown wall-time limit: set WALLTIME=HH:MM:SS"
-margin=${MARGIN_S:-600}
+margin=${MARGIN_S:-300}
 log "part $part: scene $scene, $np ranks, output $out, walltime $walltime, margin $margin s"
 
 # ---- 1. environment check ---------------------------------------------------------------------------
@@ -125,7 +128,9 @@ case $rc in
         elif [[ -z "${PBS_JOBID:-}" ]]; then
             log "checkpointed; not under PBS, so not resubmitting"
         else
+            # MICROPIT_PREVIOUS_JOB: a lock this job left in $out (killed) is stale for the next
             vars="SCENE=$scene,OUT_DIR=$out,RESUBMIT=$((part + 1)),MICROPIT_ROOT=$root"
+            vars+=",MICROPIT_PREVIOUS_JOB=$PBS_JOBID"
             for v in NP WALLTIME MARGIN_S MAX_RESUBMITS MICROPIT_PYTHON RUN_ARGS QSUB_ARGS; do
                 [[ -z "${!v:-}" ]] || vars+=",$v=${!v}"
             done

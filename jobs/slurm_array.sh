@@ -17,9 +17,13 @@
 #      or a missing petsc4py fails here, in seconds, not hours into the run (HPC.md trap 5).
 #   2. `micropit run SCENE --out DIR --restart --stop-file DIR/STOP`: --restart continues from
 #      the newest complete checkpoint in DIR (a fresh start when there is none).
-#   3. 300 s before the time limit Slurm sends SIGUSR1 to this batch shell (--signal=B:USR1@300);
-#      the trap below forwards it to the launcher, which relays it to every rank. At the next
-#      block boundary all ranks agree to stop, write a checkpoint and exit with code 85.
+#   3. The run gets a wall-time budget by default: the job's end time (squeue, exported as
+#      SLURM_JOB_END_TIME) less 120 s; at each block boundary the ranks stop when the next block
+#      (1.2 × the longest block so far plus a checkpoint, measured) would overrun it, write a
+#      checkpoint and exit with code 85. As a backstop, 600 s before the time limit Slurm sends
+#      SIGUSR1 to this batch shell (--signal=B:USR1@600); the trap below (jobs/forward.sh)
+#      delivers it, and any SIGTERM (scancel, the limit), to the ranks as SIGUSR1 through the
+#      launcher's relay: at the next block boundary they checkpoint and exit 85.
 #   4. On exit code 85 this script requeues the task (`scontrol requeue`): the same task starts
 #      again later, with the same arguments, and step 2 resumes from the checkpoint.
 #      Any other exit code ends the task (0: finished; anything else: an error, see the log).
@@ -35,7 +39,7 @@
 #   LAUNCHER=mpirun|srun    how ranks are started (default mpirun: the MPI library of mpi4py
 #                           must be the launcher's; srun needs Slurm's PMI support in that MPI)
 #   POSITION_OPT=--position the option of `micropit run` that selects one position (MODE=positions)
-#   MAX_WALL=SECONDS        also pass --max-wall (belt and braces next to the signal)
+#   MAX_WALL=SECONDS        the run's wall-time budget (default: the job's end less 120 s)
 #   MAX_REQUEUES=N          stop requeueing after N requeues (default 50; runaway protection)
 #   MICROPIT_PYTHON=PATH    the interpreter (default .venv/bin/python from scripts/setup.sh)
 #   MICROPIT_ROOT=DIR       the repository (default: the directory sbatch was run in)
@@ -45,7 +49,7 @@
 #SBATCH --ntasks=4
 #SBATCH --cpus-per-task=1
 #SBATCH --time=24:00:00
-#SBATCH --signal=B:USR1@300
+#SBATCH --signal=B:USR1@600
 #SBATCH --requeue
 #SBATCH --open-mode=append
 #SBATCH --output=micropit_%A_%a.out
@@ -111,7 +115,18 @@ log "task $task: scene $scene, $np ranks, output $out (requeue count ${SLURM_RES
 
 # ---- 2. the run: --restart continues from the newest checkpoint (a fresh start when none) ----------
 args=(run "$scene" --out "$out" --restart --stop-file "$stop_file" "${run_extra[@]}")
-[[ -z "${MAX_WALL:-}" ]] || args+=(--max-wall "$MAX_WALL")
+if [[ -n "${MAX_WALL:-}" ]]; then
+    args+=(--max-wall "$MAX_WALL")
+elif [[ -z "${SLURM_JOB_END_TIME:-}" && -n "${SLURM_JOB_ID:-}" ]] && command -v squeue >/dev/null; then
+    # the default budget of `micropit run` reads the job's end (epoch seconds) from here
+    end=$(squeue -h -j "$SLURM_JOB_ID" -o %e 2>/dev/null | head -n 1)
+    if end_s=$(date -d "$end" +%s 2>/dev/null); then
+        export SLURM_JOB_END_TIME=$end_s
+        log "job ends at $end: the run stops at the block boundary before it (less 120 s)"
+    else
+        log "warning: cannot read the job's end time ('$end'); no wall-time budget, only the signal"
+    fi
+fi
 # shellcheck disable=SC2206  # RUN_ARGS is split on purpose
 [[ -z "${RUN_ARGS:-}" ]] || args+=(${RUN_ARGS})
 

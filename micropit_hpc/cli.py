@@ -7,10 +7,11 @@ Errors the user can fix (bad scene files, a broken environment) are printed as o
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 
 from micropit_hpc import __version__
-from micropit_hpc.errors import MicropitError, SceneError
+from micropit_hpc.errors import MicropitError, collective
 from micropit_hpc.parallel import launcher_rank
 
 EXIT_USER_ERROR = 2
@@ -86,47 +87,125 @@ def _cmd_snapshot(args: argparse.Namespace) -> int:
 
 
 def _cmd_run(args: argparse.Namespace) -> int:
-    import sys
     import time
     from pathlib import Path
 
-    from micropit_hpc.io.results import write_results, write_summary
     from micropit_hpc.parallel import world
-    from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
-    from micropit_hpc.parallel.petsc import init_petsc, option, options_left_warning, stage
-    from micropit_hpc.progress import NullProgress, Progress
-    from micropit_hpc.regime import block_warning
-    from micropit_hpc.runner import RunOptions, run_study
-    from micropit_hpc.scene import load_scene
-    from micropit_hpc.study import SUMMARY_COLUMNS, summary_rows
+    from micropit_hpc.parallel.control import StopControl
+    from micropit_hpc.parallel.failure import say
+    from micropit_hpc.parallel.petsc import init_petsc
 
     comm = world()
     rank0 = comm.rank == 0
-    init_petsc(args.petsc_options)
-    scene = load_scene(args.scene)
-    out = Path(args.out)
-    if rank0:
-        try:
-            out.mkdir(parents=True, exist_ok=True)
-        except OSError as e:
-            raise MicropitError(f"cannot create --out {out}: {e.strerror or e}") from None
+    t0 = time.perf_counter()
 
     def log(msg: str) -> None:
         if rank0:
-            print(f"# {msg}", file=sys.stderr, flush=True)
+            say(f"# {msg}")
 
+    # From here on SIGUSR1/SIGTERM are noted, never fatal, until the results are written; a
+    # process started as the `micropit` command then ignores them until it exits.
+    control = StopControl(comm, None if args.stop_file is None else Path(args.stop_file),
+                          _default_budget(args.max_wall, log))
+    try:
+        init_petsc(args.petsc_options)
+        return _run(args, comm, control, log, t0)
+    finally:
+        control.close(final=args.process_entry)
+
+
+def _default_budget(max_wall: float | None, log) -> float | None:
+    """--max-wall, or by default what is left of a Slurm job (SLURM_JOB_END_TIME) less
+    :data:`BUDGET_RESERVE_S` for the last checkpoint, the results and the shutdown."""
+    import os
+    import time
+
+    if max_wall is not None:
+        return max_wall
+    end = os.environ.get("SLURM_JOB_END_TIME", "")
+    if end.isdigit():
+        left = int(end) - time.time() - BUDGET_RESERVE_S
+        if left > 0:
+            log(f"wall-time budget {left:.0f} s: the Slurm job ends at {end} "
+                f"(SLURM_JOB_END_TIME), less {BUDGET_RESERVE_S:g} s kept for the shutdown")
+            return left
+    return None
+
+
+#: Seconds kept free at the end of a Slurm job's time by the default wall-time budget.
+BUDGET_RESERVE_S = 120.0
+
+
+def _int_option(name: str, default: int) -> int:
+    """A positive whole-number PETSc-style option ``-name``, or a one-line error."""
+    from micropit_hpc.parallel.petsc import option
+
+    raw = option(name, None, str)
+    if raw is None:
+        return default
+    text = str(raw).strip()
+    if not text.isdigit() or int(text) < 1:
+        raise collective(MicropitError(f"-{name} {text}: expected a whole number ≥ 1"))
+    return int(text)
+
+
+def _run(args, comm, control, log, t0) -> int:
+    from pathlib import Path
+
+    from micropit_hpc import estimate
+    from micropit_hpc.io import outdir
+    from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
+    from micropit_hpc.parallel.petsc import options_left_warning
+    from micropit_hpc.runner import RunOptions
+    from micropit_hpc.scene import load_scene
+    from micropit_hpc.study import life_blocks
+
+    if args.force and not args.restart:
+        raise collective(MicropitError("--force only applies with --restart (it accepts a "
+                                       "checkpoint written for another scene)"))
+    if args.overwrite and args.restart:
+        raise collective(MicropitError("--overwrite deletes the checkpoints that --restart "
+                                       "would continue from: give one of them"))
+    scene = load_scene(args.scene)
+    out = Path(args.out)
     opts = RunOptions(
         out=out, positions=None if args.position is None else tuple(args.position),
         ranks_per_item=args.ranks_per_item, restart=args.restart, force=args.force,
-        max_wall_s=args.max_wall, stop_file=None if args.stop_file is None
-        else Path(args.stop_file), keep=option("micropit_checkpoint_keep", 3),
-        checkpoint_every=option("micropit_checkpoint_every", 1))
-    if opts.keep < 1 or opts.checkpoint_every < 1:
-        raise MicropitError("-micropit_checkpoint_keep and -micropit_checkpoint_every must be "
-                            f"at least 1, got {opts.keep} and {opts.checkpoint_every}")
-    t0 = time.perf_counter()
+        max_wall_s=control.max_wall_s, stop_file=control.stop_file,
+        keep=_int_option("micropit_checkpoint_keep", 3),
+        checkpoint_every=_int_option("micropit_checkpoint_every", 1))
+    n_blocks = life_blocks(scene)
+    estimate.check(scene, comm, args.ranks_per_item, opts.positions, n_blocks, log,
+                   ignore_memory=args.ignore_memory_estimate)
+    lock = outdir.prepare(out, comm, restart=args.restart, overwrite=args.overwrite, log=log)
+    try:
+        status = _run_locked(args, comm, control, log, t0, scene, opts, n_blocks)
+    finally:
+        if lock is not None:
+            lock.release()
+    options_left_warning(comm)
+    return EXIT_CHECKPOINTED if status == "stopped" else 0
+
+
+def _run_locked(args, comm, control, log, t0, scene, opts, n_blocks) -> str:
+    """The run itself, in a locked output folder; returns "done" or "stopped"."""
+    import time
+
+    from micropit_hpc.io import outdir
+    from micropit_hpc.io.results import write_results, write_summary
+    from micropit_hpc.parallel.petsc import stage
+    from micropit_hpc.progress import NullProgress, Progress
+    from micropit_hpc.regime import block_warning
+    from micropit_hpc.runner import run_study
+    from micropit_hpc.study import SUMMARY_COLUMNS, block_cycles, summary_rows
+
+    rank0 = comm.rank == 0
+    out = opts.out
+    last = block_cycles(scene, n_blocks)
+    shorter = (f", the last of {last / 1e6:g} M" if last != scene.life.block else "")
     log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item, "
-        f"blocks of {scene.life.block / 1e6:g} M cycles to {scene.life.cycles / 1e6:g} M")
+        f"{n_blocks} blocks of {scene.life.block / 1e6:g} M cycles{shorter} to "
+        f"{scene.life.cycles / 1e6:g} M")
     progress, the_study = [None], [None]
 
     def on_start(blocks: int, start: int, study) -> None:
@@ -168,7 +247,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         progress[0].update(k, f"{k * len(records)} item-blocks of {blocks * len(records)}, "
                               f"max A_p body 1 {ap:.3g} %")
 
-    outcome = run_study(scene, opts, comm, log, on_block, on_start)
+    outcome = run_study(scene, opts, comm, log, on_block, on_start, control=control)
     if progress[0] is not None:
         progress[0].close()
     study = outcome.study
@@ -184,13 +263,32 @@ def _cmd_run(args: argparse.Namespace) -> int:
                     "wall_s": time.perf_counter() - t0, "status": outcome.status,
                     "blocks_done": outcome.blocks_done, "restarted_from_block":
                     outcome.start_block}
-            csv = write_summary(out / "summary.csv", SUMMARY_COLUMNS, rows)
-            h5 = write_results(out / "results.h5", study, outcome.records, maps, meta)
+            staged = outdir.staging(out)
+            write_summary(staged / "summary.csv", SUMMARY_COLUMNS, rows)
+            write_results(staged / "results.h5", study, outcome.records, maps, meta)
+            try:
+                manifest = outdir.publish(out, ("summary.csv", "results.h5"), {
+                    "status": outcome.status, "blocks_done": outcome.blocks_done,
+                    "blocks": study.blocks, "run_id": outcome.run_id})
+            except OSError as e:
+                raise MicropitError(f"cannot publish the results in {out}: "
+                                    f"{e.strerror or e}") from None
             what = ("results" if outcome.status == "done"
                     else f"partial results (block {outcome.blocks_done} of {study.blocks})")
-            log(f"wrote {what}: {csv} and {h5} in {time.perf_counter() - t0:.1f} s")
-    options_left_warning(comm)
-    return EXIT_CHECKPOINTED if outcome.status == "stopped" else 0
+            log(f"wrote {what}: {out / 'summary.csv'} and {out / 'results.h5'} ({manifest}) "
+                f"in {time.perf_counter() - t0:.1f} s")
+    if outcome.status == "done" and control.signal_received:
+        log(f"signal {control.signal_received} arrived after the last block; the results are "
+            "complete")
+    return outcome.status
+
+
+def _out_dir(text: str) -> str:
+    if not text.strip():
+        raise argparse.ArgumentTypeError("expected a folder name, got an empty one (a run "
+                                         "never writes into the current folder by accident; "
+                                         "give --out . for that)")
+    return text
 
 
 def _wall_time(text: str) -> float:
@@ -210,8 +308,9 @@ def _wall_time(text: str) -> float:
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected seconds or [D-]H:M:S, got {text!r}") from None
-    if secs <= 0:
-        raise argparse.ArgumentTypeError(f"the wall-time budget must be positive, got {text!r}")
+    if not math.isfinite(secs) or secs <= 0:
+        raise argparse.ArgumentTypeError(f"the wall-time budget must be a positive, finite "
+                                         f"time, got {text!r}")
     return secs
 
 
@@ -223,6 +322,7 @@ def _cmd_check_env(args: argparse.Namespace) -> int:
 
 def _cmd_scene(args: argparse.Namespace) -> int:
     from micropit_hpc.scene import keys_markdown, load_scene
+    from micropit_hpc.study import life_blocks
 
     if args.help_keys:
         print(keys_markdown())
@@ -231,6 +331,7 @@ def _cmd_scene(args: argparse.Namespace) -> int:
         raise MicropitError("give a scene file to check, or --help-keys for the key reference")
     for path in args.scene:
         scene = load_scene(path)
+        life_blocks(scene)   # a life of too many blocks is refused here already
         if scene.gear is not None:
             pos = scene.positions
             n = pos.count if pos.kind == "count" else len(pos.values)
@@ -256,13 +357,25 @@ def _petsc_values_ok(extra: list[str]) -> bool:
     return not any(a.startswith("--") for a in extra)
 
 
+class _Parser(argparse.ArgumentParser):
+    """An ArgumentParser whose usage errors are printed once under a launcher (by the rank the
+    launcher numbers 0; every rank parses the same command line, before MPI starts)."""
+
+    def error(self, message: str):
+        if launcher_rank() == 0:
+            self.print_usage(sys.stderr)
+            sys.stderr.write(f"{self.prog}: error: {message}\n")
+            sys.stderr.flush()
+        raise SystemExit(2)
+
+
 def build_parser() -> argparse.ArgumentParser:
-    common = argparse.ArgumentParser(add_help=False)
+    common = _Parser(add_help=False)
     # SUPPRESS: a subcommand's parser must not reset a --debug given before the subcommand (the
     # action object is shared by every parser built from `common`: never set_defaults(debug=))
     common.add_argument("--debug", action="store_true", default=argparse.SUPPRESS,
                         help="show the Python traceback of errors")
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="micropit", parents=[common],
         description="Micropitting of rough, lubricated rolling-sliding contacts (gears, disc "
                     "rigs). Scene keys: micropit scene --help-keys.")
@@ -300,21 +413,33 @@ def build_parser() -> argparse.ArgumentParser:
                                    "roughness scales × patches) on all ranks, and write "
                                    "DIR/summary.csv and DIR/results.h5 (docs/outputs.md).")
     p.add_argument("scene", metavar="SCENE", help="scene file (TOML)")
-    p.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    p.add_argument("--out", required=True, type=_out_dir, metavar="DIR",
+                   help="output folder: one run's; locked while the run lives; refused if it "
+                        "holds another run's results or checkpoints (see --restart, "
+                        "--overwrite)")
     p.add_argument("--position", type=_positive_int, action="append", default=None,
                    metavar="K", help="only position K (repeat for several; default all)")
     p.add_argument("--ranks-per-item", type=_positive_int, default=1, metavar="R",
                    help="ranks per work item: each item's window is split over R ranks "
                         "(default 1: items spread over all ranks)")
     p.add_argument("--restart", action="store_true",
-                   help="resume from the newest complete checkpoint in DIR/checkpoints "
-                        "(any number of ranks); start afresh if there is none")
+                   help="resume from the checkpoint DIR/checkpoints/LATEST names (any number "
+                        "of ranks), after verifying it; a damaged one falls back to the "
+                        "previous good one; start afresh if there is none")
+    p.add_argument("--overwrite", action="store_true",
+                   help="delete the results and checkpoints of a previous run in DIR and "
+                        "start afresh (without it a fresh run refuses such a folder)")
     p.add_argument("--force", action="store_true",
                    help="with --restart: accept a checkpoint written for a different scene "
                         "(the work items and window must still match)")
     p.add_argument("--max-wall", type=_wall_time, default=None, metavar="TIME",
                    help="wall-time budget (seconds or [D-]H:M:S): stop at the block "
-                        "boundary where the next block would overrun it, checkpoint, exit 85")
+                        "boundary where the next block (1.2 × the longest so far, plus a "
+                        "checkpoint) would overrun it, checkpoint, exit 85. Default under "
+                        "Slurm: the job's end (SLURM_JOB_END_TIME) less 120 s")
+    p.add_argument("--ignore-memory-estimate", action="store_true",
+                   help="run even when the up-front memory estimate (printed) exceeds the "
+                        "memory available on this node")
     p.add_argument("--stop-file", default=None, metavar="FILE",
                    help="stop at the next block boundary once FILE exists (checkpoint, "
                         "exit 85)")
@@ -352,15 +477,74 @@ def main(argv: list[str] | None = None) -> int:
         if args.command != "run" or (bad and not _petsc_values_ok(extra)):
             parser.error(f"unrecognized arguments: {' '.join(extra)}")
     args.petsc_options = extra
+    args.process_entry = argv is None   # the command itself, not a call from Python
     try:
         return args.func(args)
-    except MicropitError as e:
-        if getattr(args, "debug", False):
-            raise
-        if isinstance(e, SceneError) and launcher_rank() > 0:
-            return EXIT_USER_ERROR  # every rank read the same file: rank 0 says it once
-        print(f"micropit: error: {e}", file=sys.stderr, flush=True)
-        return EXIT_USER_ERROR
+    except (Exception, KeyboardInterrupt) as e:  # every error ends the job
+        return _fail(e, getattr(args, "debug", False))
+
+
+#: Seconds the ranks wait for each other after an error every rank raised (collective): if a
+#: rank does not arrive, the error was not collective after all and the job is aborted.
+COLLECTIVE_EXIT_WAIT_S = 10.0
+
+
+def _mpi_world():
+    """COMM_WORLD when MPI is initialised and running, else None (never initialises MPI)."""
+    mpi = sys.modules.get("mpi4py.MPI")
+    if mpi is None or not mpi.Is_initialized() or mpi.Is_finalized():
+        return None
+    return mpi.COMM_WORLD
+
+
+def _fail(e: BaseException, debug: bool) -> int:
+    """Report ``e`` once and end the job (HPC.md §4: one rank's error must not hang the others).
+
+    A user error (:class:`MicropitError`) is one line ``micropit: error: ...``; any other
+    exception is a bug: its traceback (one rank only) and a one-line summary. On one rank the
+    exit code is returned. Under MPI a *collective* error (every rank raised it, e.g. a bad
+    scene or an agreed checkpoint verdict) is printed by rank 0 and every rank returns; a
+    rank-local error is printed by the rank that had it, which then calls ``MPI_Abort``: the
+    other ranks may be waiting for it in a collective call and would otherwise spin forever.
+    """
+    import traceback
+
+    from micropit_hpc.parallel.failure import abort_job, is_bug, one_line, say
+
+    text, code = one_line(e)
+    comm = _mpi_world()
+    size = comm.Get_size() if comm is not None else 1
+    if size == 1:
+        if debug or is_bug(e):
+            raise e
+        if comm is None and getattr(e, "collective", False) and launcher_rank() > 0:
+            return code  # MPI not started, every rank read the same file: rank 0 says it
+        say(f"micropit: error: {text}")
+        return code
+    if getattr(e, "collective", False):
+        if comm.Get_rank() == 0:
+            if debug:
+                traceback.print_exception(e)
+            say(f"micropit: error: {text}")
+        if _wait_for_all(comm, COLLECTIVE_EXIT_WAIT_S):
+            return code
+        e = MicropitError(f"{text} (the other ranks did not meet this error within "
+                          f"{COLLECTIVE_EXIT_WAIT_S:g} s; aborting the job)")
+    abort_job(e, comm, debug)
+    return code  # not reached
+
+
+def _wait_for_all(comm, timeout_s: float) -> bool:
+    """True when every rank reaches this point within ``timeout_s`` (a non-blocking barrier)."""
+    import time
+
+    req = comm.Ibarrier()
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        if req.Test():
+            return True
+        time.sleep(0.01)
+    return False
 
 
 def _item_list(ids: list[int], show: int = 12) -> str:

@@ -25,20 +25,23 @@ from __future__ import annotations
 
 import json
 import time
+import uuid
 from collections.abc import Callable
 from dataclasses import astuple, dataclass, fields
 from pathlib import Path
 
 import numpy as np
 
+from micropit_hpc.errors import collective
 from micropit_hpc.io.checkpoint import (
     CheckpointError,
+    Expected,
     FieldSpec,
     Piece,
     checkpoint_name,
     find_latest,
+    read_attrs,
     read_checkpoint,
-    verify_checkpoint,
     write_checkpoint,
 )
 from micropit_hpc.io.hdf5 import h5py_module, scene_json
@@ -52,6 +55,8 @@ __all__ = ["RECORD_FIELDS", "RunOptions", "RunOutcome", "record_from_row", "reco
            "run_study"]
 
 CHECKPOINT_DIR = "checkpoints"
+#: The wall-time budget reserves this many times the longest block so far for the next one.
+NEXT_BLOCK_MARGIN = 1.2
 
 #: Columns of the ``records`` checkpoint field: BlockRecord's fields, pairs flattened.
 RECORD_FIELDS = ("block", "cycles", "sub_blocks", "phi", "wall_s", "Ap1", "Ap2",
@@ -110,6 +115,7 @@ class RunOutcome:
     records: dict[int, list[BlockRecord]]
     reason: str | None
     study: Study
+    run_id: str | None = None
 
 
 def _field_specs(study: Study) -> list[FieldSpec]:
@@ -130,8 +136,60 @@ def _items_json(study: Study) -> str:
     return json.dumps([[i.id, i.position, i.k_lub, i.scale, i.patch] for i in study.items])
 
 
-def _attrs(study: Study, scene: Scene) -> dict:
-    return {"scene": scene_json(scene.document), "scene_file": str(scene.source),
+def surface_files(scene: Scene) -> dict[str, str]:
+    """{path: SHA-256} of every measured-surface file the scene reads (kind = "file")."""
+    import hashlib
+
+    out = {}
+    for b in (scene.body1, scene.body2):
+        spec = b.surface
+        if spec.kind == "file" and spec.file is not None:
+            h = hashlib.sha256()
+            try:
+                with open(spec.file, "rb") as fh:
+                    for chunk in iter(lambda fh=fh: fh.read(1 << 20), b""):
+                        h.update(chunk)
+            except OSError as e:
+                raise collective(CheckpointError(
+                    f"{scene.source}: cannot read the measured surface {spec.file}: "
+                    f"{e.strerror or e}")) from None
+            out[str(spec.file)] = h.hexdigest()
+    return out
+
+
+#: Attributes a usable checkpoint of a run must carry (besides write_checkpoint's own).
+RUN_ATTRS = ("scene", "scene_file", "items", "seed", "blocks", "block_cycles", "life_cycles")
+# (and, from checkpoint format 2 on, "run_id" and "surface_files")
+
+
+def _expected(study: Study) -> Expected:
+    """The layout a checkpoint of ``study`` must have before a restart may choose it."""
+
+    def check(f, attrs):
+        done = attrs.get("block")
+        rec = f["records"]
+        if rec.shape[-1] != len(RECORD_FIELDS) or not isinstance(done, int) \
+                or not 1 <= done <= rec.shape[1]:
+            raise CheckpointError(f"{f.filename}: records of shape {rec.shape} cannot hold "
+                                  f"block {done!r} of {len(RECORD_FIELDS)} columns")
+        for i in range(rec.shape[0]):
+            tab = rec[i, :done]
+            if not np.all(np.isfinite(tab)):
+                raise CheckpointError(f"{f.filename}: records of item {i} hold non-finite "
+                                      f"values within the {done} blocks done")
+            state = f["state"][i]
+            if int(state[1]) != done:
+                raise CheckpointError(f"{f.filename}: item {i} is at block {int(state[1])}, "
+                                      f"the checkpoint says block {done}")
+
+    # the items and the number of blocks may differ (then _inspect says why it cannot resume)
+    return Expected(fields=_field_specs(study), attrs=RUN_ATTRS, any_shape=("records",),
+                    nan_ok=("records",), check=check)
+
+
+def _attrs(study: Study, scene: Scene, run_id: str, surfaces: dict[str, str]) -> dict:
+    return {"run_id": run_id, "surface_files": surfaces,
+            "scene": scene_json(scene.document), "scene_file": str(scene.source),
             "items": _items_json(study), "seed": int(scene.window.seed),
             "rng": "numpy SeedSequence(seed, spawn_key=(body,) or (body, patch)); per-row "
                    "streams (surfaces/synthetic.py); no state advances during a run",
@@ -166,8 +224,10 @@ def _pieces(study: Study, records: dict[int, list[BlockRecord]]) -> list[Piece]:
     return pieces
 
 
-def _check_compatible(path: Path, attrs: dict, study: Study, scene: Scene, force: bool) -> None:
-    """Refuse a checkpoint of another scene (unless ``force``) or other work items."""
+def _check_compatible(path: Path, attrs: dict, study: Study, scene: Scene, force: bool,
+                      surfaces: dict[str, str]) -> None:
+    """Refuse a checkpoint of another scene or of other measured-surface files (unless
+    ``force``), or of other work items."""
     if attrs.get("items") != _items_json(study):
         raise CheckpointError(
             f"{path} holds other work items than {scene.source} with these options "
@@ -182,6 +242,13 @@ def _check_compatible(path: Path, attrs: dict, study: Study, scene: Scene, force
             f"{path} was written for a different scene (from {attrs.get('scene_file')}); "
             f"keys that differ: {shown or 'formatting only'}. Restart with the scene it was "
             f"written for, or pass --force to continue with {scene.source}")
+    before = json.loads(attrs.get("surface_files") or "{}")
+    for name, digest in surfaces.items():
+        if before.get(name, digest) != digest and not force:
+            raise CheckpointError(
+                f"{path}: the measured surface {name} changed since the checkpoint was "
+                f"written (SHA-256 {before[name][:12]}… then, {digest[:12]}… now); restore "
+                "the file, or pass --force to continue on the new one")
 
 
 def _differences(a, b, prefix: str = "") -> list[str]:
@@ -238,20 +305,22 @@ def _read_state(path: Path, study: Study) -> tuple[int, dict[int, list[BlockReco
     if study.comm.size > 1:
         problem = study.comm.bcast(problem, root=0)
     if problem:
-        raise CheckpointError(problem)
+        raise collective(CheckpointError(problem))
     return done, records
 
 
-def _inspect(path: Path, study: Study, scene: Scene, force: bool) -> list[float] | None:
+def _inspect(path: Path, study: Study, scene: Scene, force: bool,
+             surfaces: dict[str, str]) -> tuple[str, list[float] | None]:
     """Check that the checkpoint ``path`` can resume ``study`` (rank 0 reads it once, every
     rank gets the verdict: CheckpointError everywhere or nowhere) and return each item's last
-    block time from it (None when not all are known) for the longest-first assignment."""
+    block time from it (None when not all are known) for the longest-first assignment,
+    with the run id the checkpoint carries."""
     comm = study.comm
-    answer = (None, None)
+    answer = (None, None, None)
     if comm.rank == 0:
         try:
-            attrs = verify_checkpoint(path)
-            _check_compatible(path, attrs, study, scene, force)
+            attrs = read_attrs(path)   # verified by find_latest
+            _check_compatible(path, attrs, study, scene, force, surfaces)
             done = int(attrs["block"])
             if done > study.blocks:
                 raise CheckpointError(f"{path} is block {done}, beyond this scene's "
@@ -259,33 +328,44 @@ def _inspect(path: Path, study: Study, scene: Scene, force: bool) -> list[float]
             with h5py_module().File(path, "r") as f:
                 wall = f["records"][:, done - 1, RECORD_FIELDS.index("wall_s")]
             costs = [float(c) for c in wall] if np.all(np.isfinite(wall)) else None
-            answer = (None, costs)
+            answer = (None, costs, attrs.get("run_id"))
         except CheckpointError as e:
-            answer = (str(e), None)
-    problem, costs = comm.bcast(answer, root=0) if comm.size > 1 else answer
+            answer = (str(e), None, None)
+    problem, costs, run_id = comm.bcast(answer, root=0) if comm.size > 1 else answer
     if problem:
-        raise CheckpointError(problem)
-    return costs
+        raise collective(CheckpointError(problem))
+    return run_id, costs
 
 
 def run_study(scene: Scene, opts: RunOptions, comm,
               log: Callable[[str], None] = lambda s: None,
               on_block: Callable[[int, int, dict], None] | None = None,
-              on_start: Callable[[int, int, Study], None] | None = None) -> RunOutcome:
+              on_start: Callable[[int, int, Study], None] | None = None,
+              control: StopControl | None = None) -> RunOutcome:
     """Run (or resume) every work item of ``scene`` on ``comm`` (collective). ``on_start``
     is called on every rank before the first block with (blocks, blocks already done, study),
-    ``on_block`` after each block with (block, blocks, records)."""
+    ``on_block`` after each block with (block, blocks, records). ``control``: the stop
+    control to ask at each block boundary (default: one made here from ``opts``, closed at
+    the end; the CLI passes its own, which keeps the signals handled until the results are
+    written)."""
     rank0 = comm.rank == 0
     ckdir = Path(opts.out) / CHECKPOINT_DIR
     latest = None
-    if opts.restart:
-        latest = find_latest(ckdir, comm, on_skip=lambda e: log(f"skipped {e}") if rank0
-                             else None)
-        if latest is None:
-            log(f"--restart: no usable checkpoint in {ckdir}; starting from the beginning")
+    surfaces = comm.bcast(surface_files(scene) if rank0 else None, root=0) \
+        if comm.size > 1 else surface_files(scene)
     with stage("setup"):
         study = Study(scene, comm, opts.ranks_per_item, opts.positions, log)
-        costs = _inspect(latest, study, scene, opts.force) if latest is not None else None
+        if opts.restart:
+            latest = find_latest(ckdir, comm, expect=_expected(study),
+                                 on_skip=lambda e: log(f"skipped {e}") if rank0 else None)
+            if latest is None:
+                log(f"--restart: no usable checkpoint in {ckdir}; starting from the "
+                    "beginning")
+        run_id, costs = (_inspect(latest, study, scene, opts.force, surfaces)
+                         if latest is not None else (None, None))
+        if run_id is None:
+            run_id = comm.bcast(uuid.uuid4().hex if rank0 else None, root=0) \
+                if comm.size > 1 else uuid.uuid4().hex
         if costs is not None:
             study.assign(costs)
         study.setup()
@@ -297,7 +377,7 @@ def run_study(scene: Scene, opts: RunOptions, comm,
         log(f"restarted from {latest} (block {start} of {study.blocks}, "
             f"{'round robin' if costs is None else 'longest-first by last block time'})")
     specs = _field_specs(study)
-    attrs = _attrs(study, scene) if rank0 else {}
+    attrs = _attrs(study, scene, run_id, surfaces) if rank0 else {}
 
     def checkpoint(k: int) -> Path:
         with stage("checkpoint"):
@@ -307,7 +387,11 @@ def run_study(scene: Scene, opts: RunOptions, comm,
     done, reason, written = start, None, start
     if on_start is not None:
         on_start(study.blocks, start, study)
-    with StopControl(comm, opts.stop_file, opts.max_wall_s) as control:
+    own = control is None
+    if own:
+        control = StopControl(comm, opts.stop_file, opts.max_wall_s)
+    longest, ckpt_s = 0.0, 0.0   # the longest block (with its checkpoint), the last checkpoint
+    try:
         for k in range(start + 1, study.blocks + 1):
             t0 = time.perf_counter()
             with stage("blocks"):
@@ -315,19 +399,26 @@ def run_study(scene: Scene, opts: RunOptions, comm,
                     records[iid].append(rec)
             done = k
             if k % opts.checkpoint_every == 0 or k == study.blocks:
+                t1 = time.perf_counter()
                 checkpoint(k)
-                written = k
+                written, ckpt_s = k, time.perf_counter() - t1
             if on_block is not None:
                 on_block(k, study.blocks, records)
             if k == study.blocks:
                 break
-            reason = control.reason(next_block_s=time.perf_counter() - t0)
+            longest = max(longest, time.perf_counter() - t0)
+            # the next block may be longer than any so far (adaptive splits): 20 % margin,
+            # plus a checkpoint for the stop itself
+            reason = control.reason(next_block_s=NEXT_BLOCK_MARGIN * longest + ckpt_s)
             if reason:
                 if written != k:
                     checkpoint(k)
                 log(f"stopping after block {k} of {study.blocks}: {reason}; checkpoint "
                     f"{ckdir / checkpoint_name(k)} written; continue with --restart")
-                return RunOutcome("stopped", done, start, records, reason, study)
+                return RunOutcome("stopped", done, start, records, reason, study, run_id)
+    finally:
+        if own:
+            control.close()
     if start == study.blocks:
         log(f"the checkpoint is already at the last block ({start}); writing the results")
-    return RunOutcome("done", done, start, records, None, study)
+    return RunOutcome("done", done, start, records, None, study, run_id)

@@ -20,7 +20,7 @@ import numpy as np
 
 from micropit_hpc.conditions import ContactStudy, contact_study
 from micropit_hpc.cycle import PositionCycle, body_surface, reference_half_width, window_grid
-from micropit_hpc.errors import MicropitError, SceneError
+from micropit_hpc.errors import MicropitError, SceneError, collective
 from micropit_hpc.film import iso_lambda_gf
 from micropit_hpc.life import (
     BlockRecord,
@@ -34,7 +34,8 @@ from micropit_hpc.regime import block_flags, window_problems
 from micropit_hpc.scene import Scene
 from micropit_hpc.surfaces import Topography
 
-__all__ = ["SUMMARY_COLUMNS", "ItemRun", "Study", "WorkItem", "summary_rows", "work_items"]
+__all__ = ["MAX_BLOCKS", "SUMMARY_COLUMNS", "ItemRun", "Study", "WorkItem", "block_cycles",
+           "life_blocks", "summary_rows", "work_items"]
 
 SUMMARY_COLUMNS = ("item", "position", "S", "p0_GPa", "Lambda", "k_lub_s", "body", "cycles",
                    "Ap_pct", "max_damage", "wear_um", "Rq_um", "slope_dq", "low_cycle_damage_pct",
@@ -72,6 +73,39 @@ def scaled_scene(scene: Scene, scale: float) -> Scene:
         return scene
     return replace(scene, body1=replace(scene.body1, Rq=scene.body1.Rq * scale),
                    body2=replace(scene.body2, Rq=scene.body2.Rq * scale))
+
+
+#: The most blocks a run may have: each block is a checkpoint row and a record per item.
+MAX_BLOCKS = 10_000
+#: A remainder below this fraction of a block is round-off of the decimal inputs, not a block.
+BLOCK_ROUND_OFF = 1e-9
+
+
+def life_blocks(scene: Scene) -> int:
+    """The number of blocks that reach exactly ``life.cycles``: ⌈cycles / ΔN⌉, the last one
+    shorter when ΔN does not divide the life (a remainder below 1e-9 ΔN is round-off). A scene
+    that would need more than :data:`MAX_BLOCKS` blocks is refused."""
+    life = scene.life
+    ratio = life.cycles / life.block
+    blocks = max(1, math.ceil(ratio * (1 - BLOCK_ROUND_OFF)))
+    if blocks > MAX_BLOCKS:
+        raise SceneError(scene.source, f"the life of {life.cycles / 1e6:g} M cycles in blocks "
+                         f"of {life.block / 1e6:g} M is {ratio:.4g} blocks, more than a run can "
+                         f"checkpoint and record ({MAX_BLOCKS})", key="life.block_M",
+                         value=life.block / 1e6,
+                         allowed=f"≥ life.cycles_M / {MAX_BLOCKS} = "
+                                 f"{life.cycles / 1e6 / MAX_BLOCKS:g}")
+    return blocks
+
+
+def block_cycles(scene: Scene, k: int) -> float:
+    """Cycles of block ``k`` (1-based) of :func:`life_blocks`: ΔN, and for the last block what
+    is left of the life (so that the cycles add up to life.cycles exactly)."""
+    life = scene.life
+    n = life_blocks(scene)
+    if not 1 <= k <= n:
+        raise MicropitError(f"block {k} outside 1 … {n}")
+    return life.block if k < n else life.cycles - (n - 1) * life.block
 
 
 def check_life_kinematics(scene: Scene, c) -> None:
@@ -161,8 +195,14 @@ class Study:
         if positions is not None:
             bad = [p for p in positions if not 1 <= p <= n_pos]
             if bad:
-                raise MicropitError(f"{scene.source}: position {bad[0]} does not exist (the "
-                                    f"scene has positions 1 to {n_pos})")
+                raise collective(MicropitError(
+                    f"--position {bad[0]}: position {bad[0]} does not exist ({scene.source} has "
+                    f"positions 1 to {n_pos})"))
+            if len(set(positions)) != len(positions):
+                twice = sorted({p for p in positions if list(positions).count(p) > 1})
+                raise collective(MicropitError(
+                    f"--position {twice[0]} is given more than once: each position is one set "
+                    "of work items; give every position once"))
         self.items = work_items(scene, n_pos, positions)
         for pos in sorted({it.position for it in self.items}):
             check_life_kinematics(scene, self.base.conditions[pos - 1])
@@ -171,7 +211,7 @@ class Study:
         self.mine = [self.items[i] for i in self.group.items(self.assignment)]
         self.runs: dict[int, ItemRun] = {}
         self._ra: dict[tuple[int, float], tuple[float, float]] = {}
-        self.blocks = max(1, round(scene.life.cycles / scene.life.block))
+        self.blocks = life_blocks(scene)
         grid, z = self.window()
         self.z_max = float(z[-1])
         #: why the window does not hold the synthetic surfaces (empty when it does)
@@ -196,9 +236,9 @@ class Study:
             self.runs[it.id] = ItemRun(self.scene, it, self.base, self.log, self.group.comm)
 
     def block_cycles(self, k: int) -> float:
-        """Cycles of block k (1-based): ΔN, the last block shortened to the life."""
-        life = self.scene.life
-        return min(life.block, life.cycles - (k - 1) * life.block)
+        """Cycles of block k (1-based): ΔN, the last block shortened so that the blocks add up
+        to exactly life.cycles (:func:`life_blocks`)."""
+        return block_cycles(self.scene, k)
 
     def run_block(self, k: int) -> dict[int, BlockRecord]:
         """Block k of every item of this group; returns {item id: record} on every rank of
@@ -208,10 +248,14 @@ class Study:
             try:
                 rec = self.runs[it.id].run_block(self.block_cycles(k))
             except MicropitError as e:   # say which item failed: the scene may hold dozens
-                raise MicropitError(
+                err = MicropitError(
                     f"{self.scene.source}: item {it.id} (position {it.position}, k_lub "
                     f"{it.k_lub:g} s, roughness × {it.scale:g}, patch {it.patch}), block {k}: "
-                    f"{e}") from e
+                    f"{e}")
+                # the ranks of a group mostly meet an item's error together: the group root
+                # reports it, the others leave it the time to (micropit_hpc.parallel.failure)
+                err.group_member = self.group.comm.size > 1 and not self.group.is_root
+                raise err from e
             if self.group.is_root:
                 local[it.id] = rec
         gathered = self.comm.allgather(local)

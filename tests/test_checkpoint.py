@@ -16,6 +16,7 @@ import pytest
 
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.io.checkpoint import (
+    FORMAT_VERSION,
     CheckpointError,
     FieldSpec,
     Piece,
@@ -76,7 +77,7 @@ def test_round_trip_of_fields_regions_and_attributes(tmp_path):
     assert np.array_equal(data[(0, "damage")], damage(0)[1:4, :, 0:3:2])
     assert (attrs["block"], attrs["cycles_done"], attrs["ranks"], attrs["complete"]) == (7, 70,
                                                                                          1, 1)
-    assert attrs["format_version"] == 1 and attrs["utc"].endswith("+00:00")
+    assert attrs["format_version"] == FORMAT_VERSION and attrs["utc"].endswith("+00:00")
     assert attrs["label"] == "run α" and attrs["wear"] == 2.5e-9 and attrs["flag"] is True
     assert np.array_equal(attrs["heights"], [1.0, 2.0])
     assert isinstance(attrs["scene"], str) and json.loads(attrs["scene"]) == scene

@@ -33,12 +33,17 @@ from typing import Any
 import numpy as np
 
 from micropit_hpc import __version__
-from micropit_hpc.errors import MicropitError
+from micropit_hpc.errors import MicropitError, collective
 from micropit_hpc.io.hdf5 import h5py_module as _h5py
 from micropit_hpc.parallel import SerialComm
+from micropit_hpc.parallel.failure import abort_on_error
 from micropit_hpc.report import write_text_atomic
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: Datasets are chunked with a Fletcher-32 checksum per chunk from format 2 on.
+CHECKSUMS_FROM_FORMAT = 2
+#: Largest chunk, bytes (HDF5's limit is 4 GiB; smaller chunks bound the verifier's memory).
+MAX_CHUNK_BYTES = 64 * 2**20
 LATEST = "LATEST"
 RESERVED_ATTRS = ("format_version", "code_version", "block", "ranks", "utc", "complete")
 _NAME = re.compile(r"^ckpt_(\d+)\.h5$")
@@ -209,6 +214,21 @@ def _decode_attr(value):
     return value
 
 
+def _checksummed(shape: tuple[int, ...], itemsize: int) -> dict:
+    """Dataset options for a Fletcher-32 checksum per chunk (HDF5 verifies it on every read,
+    so a flipped byte anywhere in the data makes the read fail): chunks of one item, split
+    along the leading per-item axes until a chunk is at most :data:`MAX_CHUNK_BYTES`."""
+    if not shape or 0 in shape:
+        return {}   # nothing to store (HDF5 cannot chunk an empty dataset of fixed size)
+    chunk = [1, *shape[1:]]
+    for axis in range(1, len(chunk)):
+        if int(np.prod(chunk)) * itemsize <= MAX_CHUNK_BYTES:
+            break
+        rest = int(np.prod(chunk[axis + 1:])) * itemsize
+        chunk[axis] = max(1, min(chunk[axis], MAX_CHUNK_BYTES // max(rest, 1)))
+    return {"chunks": tuple(chunk), "fletcher32": True}
+
+
 def _fsync(path: Path) -> None:
     """fsync a file or a directory (for a directory: its entries, e.g. a rename)."""
     fd = os.open(path, os.O_RDONLY)
@@ -293,7 +313,8 @@ def write_checkpoint(directory: str | Path, comm, block: int, n_items: int,
             for r, (_p, sig, *_rest) in enumerate(gathered) if sig != gathered[0][1]]
     if bad:
         text = "; ".join(f"rank {r}: {p}" for r, p in sorted(bad)[:4])
-        raise MicropitError(f"cannot write checkpoint block {block} in {directory}: {text}")
+        raise collective(MicropitError(
+            f"cannot write checkpoint block {block} in {directory}: {text}"))
     stored = gathered[0][3]
     n_writes = {name: max(g[2].get(name, 0) for g in gathered) for name in specs}
 
@@ -301,17 +322,19 @@ def write_checkpoint(directory: str | Path, comm, block: int, n_items: int,
     tmp = final.with_name(final.name + ".tmp")
     parallel = _parallel(comm, h5py)
     if parallel:
-        f = h5py.File(tmp, "w", driver="mpio", comm=comm)
+        f = h5py.File(tmp, "w", driver="mpio", comm=comm, libver="latest")
         dxpl = h5py.h5p.create(h5py.h5p.DATASET_XFER)
         dxpl.set_dxpl_mpio(h5py.h5fd.MPIO_COLLECTIVE)
     else:
-        f = h5py.File(tmp, "w")
+        f = h5py.File(tmp, "w", libver="latest")
         dxpl = None
-    with f:
+    with f, abort_on_error(comm, parallel):  # the close is collective: no unwinding alone
         _at_stage("created", tmp)
         for name in sorted(specs):  # metadata: identical calls in the same order everywhere
             spec = specs[name]
-            f.create_dataset(name, shape=(n_items, *spec.shape), dtype=spec.dtype)
+            shape = (n_items, *spec.shape)
+            f.create_dataset(name, shape=shape, dtype=spec.dtype,
+                             **_checksummed(shape, np.dtype(spec.dtype).itemsize))
         for name in sorted(specs):
             dset = f[name]
             mine = [pc for pc in pieces if pc.name == name]
@@ -343,7 +366,8 @@ def write_checkpoint(directory: str | Path, comm, block: int, n_items: int,
             problem = f"{final}: {e}"
     problem = comm.bcast(problem, root=0)
     if problem:
-        raise CheckpointError(f"checkpoint block {block} written but not published: {problem}")
+        raise collective(CheckpointError(
+            f"checkpoint block {block} written but not published: {problem}"))
     return final
 
 
@@ -360,10 +384,29 @@ def _prune(directory: Path, block: int, keep: int) -> None:
             p.unlink(missing_ok=True)
 
 
-def verify_checkpoint(path: str | Path) -> dict[str, Any]:
+@dataclass(frozen=True)
+class Expected:
+    """What a usable checkpoint must hold (the caller's layout): every field of ``fields``
+    with its per-item shape (any shape for the names in ``any_shape``) and the same number of
+    items in each (``n_items`` if given), every attribute of ``attrs``; every value of a
+    float field finite, except the fields in ``nan_ok`` (checked by ``check`` if need be).
+    ``check`` is called with the open file and its attributes and raises CheckpointError."""
+
+    fields: Sequence[FieldSpec]
+    n_items: int | None = None
+    attrs: Sequence[str] = ()
+    any_shape: Sequence[str] = ()
+    nan_ok: Sequence[str] = ()
+    check: Callable[[Any, dict[str, Any]], None] | None = None
+
+
+def verify_checkpoint(path: str | Path, expect: Expected | None = None) -> dict[str, Any]:
     """The attributes of a usable checkpoint; CheckpointError if it cannot be opened, is not
-    complete, was written by a newer format, or is torn (a dataset's storage lies beyond the
-    end of the file or its last element cannot be read). Serial reads, any rank."""
+    complete, was written by a newer format, is torn (a dataset's storage lies beyond the end
+    of the file), or any element of any dataset cannot be read back (every element is read:
+    from format 2 on each chunk carries a Fletcher-32 checksum, so a flipped byte fails the
+    read; the file's metadata carries HDF5's own checksums). With ``expect``: also missing
+    fields or attributes, wrong shapes and non-finite values. Serial reads, any rank."""
     h5py = _h5py()
     path = Path(path)
     if not path.is_file():
@@ -387,46 +430,134 @@ def verify_checkpoint(path: str | Path) -> dict[str, Any]:
                 if offset is not None and offset + d.id.get_storage_size() > size:
                     raise CheckpointError(f"{path}: torn checkpoint (dataset {d.name} ends "
                                           f"beyond the end of the file, {size} bytes)")
-                if d.size:
-                    d[tuple(n - 1 for n in d.shape)]
+                if version >= CHECKSUMS_FROM_FORMAT and d.size and not d.fletcher32:
+                    raise CheckpointError(f"{path}: dataset {d.name} has no checksum "
+                                          f"(format {version} writes one for every dataset)")
+            if expect is not None:
+                _check_layout(path, f, attrs, expect)
+            nan_ok = set() if expect is None else {n.strip("/") for n in expect.nan_ok}
+            for d in datasets:
+                finite = expect is not None and d.name.strip("/") not in nan_ok
+                _read_all(path, d, finite)
+            if expect is not None and expect.check is not None:
+                expect.check(f, attrs)
     except CheckpointError:
         raise
     except Exception as e:  # any failure to read makes the file unusable
-        raise CheckpointError(f"{path}: unreadable checkpoint ({type(e).__name__}: {e})") from e
+        raise CheckpointError(f"{path}: unreadable checkpoint ({type(e).__name__}: "
+                              f"{' '.join(str(e).split())})") from e
     return attrs
 
 
-def find_latest(directory: str | Path, comm=None,
-                on_skip: Callable[[CheckpointError], None] | None = None) -> Path | None:
-    """The newest usable checkpoint in ``directory`` (by block number), or None.
+def read_attrs(path: str | Path) -> dict[str, Any]:
+    """The attributes of a checkpoint that :func:`find_latest` has verified already (no data
+    is read). Serial, any rank."""
+    try:
+        with _h5py().File(path, "r") as f:
+            return {k: _decode_attr(v) for k, v in f.attrs.items()}
+    except Exception as e:  # the file changed since it was verified
+        raise CheckpointError(f"{path}: unreadable checkpoint ({type(e).__name__}: {e})") from e
 
-    Skips ``*.tmp`` files and every file :func:`verify_checkpoint` rejects (``on_skip`` is
-    told why). With ``comm``, rank 0 scans and broadcasts the answer (collective).
+
+def _check_layout(path: Path, f, attrs: dict[str, Any], expect: Expected) -> None:
+    missing = [a for a in expect.attrs if a not in attrs]
+    if missing:
+        raise CheckpointError(f"{path}: attribute {missing[0]!r} is missing")
+    n_items = expect.n_items
+    for spec in expect.fields:
+        if spec.name not in f or not hasattr(f[spec.name], "shape"):
+            raise CheckpointError(f"{path}: dataset {spec.name!r} is missing")
+        d = f[spec.name]
+        if n_items is None and d.ndim:
+            n_items = d.shape[0]
+        shape = (int(n_items), *spec.shape)
+        if spec.name in expect.any_shape:
+            shape = tuple(d.shape) if d.ndim == len(shape) and d.shape[0] == n_items else shape
+        if tuple(d.shape) != shape:
+            raise CheckpointError(f"{path}: dataset {spec.name!r} has shape {tuple(d.shape)}, "
+                                  f"expected {shape}")
+        if np.dtype(d.dtype) != np.dtype(spec.dtype):
+            raise CheckpointError(f"{path}: dataset {spec.name!r} is {d.dtype}, expected "
+                                  f"{np.dtype(spec.dtype)}")
+
+
+def _read_all(path: Path, d, finite: bool) -> None:
+    """Read every element of ``d`` (one item at a time: bounded memory); with ``finite``,
+    refuse NaN and infinities in a float dataset."""
+    if not d.size:
+        return
+    for i in range(d.shape[0]) if d.ndim else [()]:
+        block = d[i]
+        if finite and np.asarray(block).dtype.kind in "fc" and not np.all(np.isfinite(block)):
+            bad = int(np.size(block) - np.count_nonzero(np.isfinite(block)))
+            raise CheckpointError(f"{path}: dataset {d.name} holds {bad} non-finite values "
+                                  f"(NaN or infinity) in item {i}")
+
+
+def find_latest(directory: str | Path, comm=None,
+                on_skip: Callable[[CheckpointError], None] | None = None,
+                expect: Expected | None = None) -> Path | None:
+    """The newest usable checkpoint in ``directory`` that ``LATEST`` leads to, or None.
+
+    Candidates are the checkpoint ``LATEST`` names and the older ones, newest first; a
+    checkpoint newer than ``LATEST``'s is a candidate only if it belongs to the same run
+    (attribute ``run_id``; a crash between its rename and the update of ``LATEST``), so the
+    leftovers of another run are never picked up. Without a ``LATEST`` file every checkpoint
+    is a candidate. Skips ``*.tmp`` files and every file :func:`verify_checkpoint` rejects
+    (with ``expect``; ``on_skip`` is told why), i.e. falls back to the previous good one.
+    With ``comm``, rank 0 scans and broadcasts the answer (collective).
     """
     if comm is not None and comm.size > 1:
         answer = None
         if comm.rank == 0:
             try:
-                found = _scan(Path(directory), on_skip)
+                found = _scan(Path(directory), on_skip, expect)
                 answer = ("ok", None if found is None else str(found))
             except Exception as e:  # every rank must leave the bcast
                 answer = ("error", f"{type(e).__name__}: {e}")
         kind, value = comm.bcast(answer, root=0)
         if kind == "error":
-            raise CheckpointError(f"{directory}: scanning for checkpoints failed on rank 0: "
-                                  f"{value}")
+            raise collective(CheckpointError(
+                f"{directory}: scanning for checkpoints failed on rank 0: {value}"))
         return None if value is None else Path(value)
-    return _scan(Path(directory), on_skip)
+    return _scan(Path(directory), on_skip, expect)
 
 
-def _scan(directory: Path, on_skip) -> Path | None:
+def _latest_pointer(directory: Path) -> int | None:
+    """The block ``LATEST`` names, or None when there is no usable ``LATEST``."""
+    try:
+        name = (directory / LATEST).read_text().strip()
+    except (OSError, UnicodeDecodeError):
+        return None
+    return block_of(name)
+
+
+def _run_id(path: Path) -> str | None:
+    try:
+        with _h5py().File(path, "r") as f:
+            value = f.attrs.get("run_id")
+    except Exception:  # an unreadable file has no run to compare
+        return None
+    return None if value is None else str(_decode_attr(value))
+
+
+def _scan(directory: Path, on_skip, expect: Expected | None = None) -> Path | None:
     if not directory.is_dir():
         return None
     candidates = sorted(((b, p) for p in directory.iterdir() if (b := block_of(p)) is not None),
                         reverse=True)
-    for _b, p in candidates:
+    pointer = _latest_pointer(directory)
+    pointed = directory / checkpoint_name(pointer) if pointer is not None else None
+    run = _run_id(pointed) if pointed is not None and pointed.is_file() else None
+    for b, p in candidates:
+        if pointer is not None and b > pointer and _run_id(p) != run:
+            if on_skip is not None:
+                on_skip(CheckpointError(f"{p}: newer than {directory / LATEST} "
+                                        f"({checkpoint_name(pointer)}) and not of the same run "
+                                        "(run_id differs): a leftover, not used"))
+            continue
         try:
-            verify_checkpoint(p)
+            verify_checkpoint(p, expect)
         except CheckpointError as e:
             if on_skip is not None:
                 on_skip(e)
@@ -486,5 +617,5 @@ def read_checkpoint(path: str | Path, comm,
         problems = [p for p in comm.allgather(problem) if p]
         problem = problems[0] if problems else None
     if problem:
-        raise CheckpointError(problem)
+        raise collective(CheckpointError(problem))
     return attrs, out

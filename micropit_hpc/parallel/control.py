@@ -104,10 +104,12 @@ class StopControl:
                            f"elapsed, next block ~{agreed[_NEXT]} s)")
         return "; ".join(reasons) or None
 
-    def close(self) -> None:
-        """Restore the signal handlers that were there before."""
+    def close(self, final: bool = False) -> None:
+        """Restore the signal handlers that were there before; ``final``: ignore the signals
+        instead (the process is about to exit with its results written: a late SIGUSR1, whose
+        default action is to terminate, must not turn a finished run into exit 138)."""
         for s, previous in self._previous.items():
-            signal.signal(s, previous)
+            signal.signal(s, signal.SIG_IGN if final else previous)
         self._previous = {}
 
     def __enter__(self) -> StopControl:

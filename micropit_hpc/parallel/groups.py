@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from micropit_hpc.errors import MicropitError
+from micropit_hpc.errors import MicropitError, collective
 
 
 @dataclass(frozen=True)
@@ -59,11 +59,13 @@ def split_groups(comm, ranks_per_item: int) -> Group:
         raise MicropitError(f"ranks_per_item must be at least 1, got {ranks_per_item}")
     size, rank = comm.size, comm.rank
     if size % ranks_per_item:
-        raise MicropitError(
-            f"{size} MPI ranks cannot be split into groups of {ranks_per_item} ranks per work "
-            f"item: the number of ranks must be a multiple of ranks_per_item (try "
-            f"{max(ranks_per_item, size - size % ranks_per_item)} or "
-            f"{size + ranks_per_item - size % ranks_per_item} ranks)")
+        lower = size - size % ranks_per_item
+        upper = size + ranks_per_item - size % ranks_per_item
+        hint = f"{lower} or {upper} ranks" if lower >= ranks_per_item else f"{upper} ranks"
+        raise collective(MicropitError(
+            f"--ranks-per-item {ranks_per_item}: {size} MPI ranks cannot be split into groups "
+            f"of {ranks_per_item} ranks per work item: the number of ranks must be a multiple of "
+            f"ranks_per_item (run on {hint}, or choose a divisor of {size})"))
     index = rank // int(ranks_per_item)
     sub = comm.Split(color=index, key=rank)
     return Group(comm=sub, index=index, count=size // int(ranks_per_item), world=comm)

@@ -1,0 +1,263 @@
+"""One run per output folder (issue 21 item 5; docs/outputs.md "The output folder").
+
+* A lock file ``OUT/.micropit.lock`` (host, pid, batch job id, start time) is created
+  exclusively by rank 0 and refreshed every :data:`HEARTBEAT_S` s while the run lives. A
+  second run into the folder is refused naming the holder. A lock is *stale* (taken over, with
+  a message) when its process is gone (same host), when it was left by this batch job before a
+  requeue or by the job named in ``MICROPIT_PREVIOUS_JOB`` (the PBS chain), or when it was not
+  refreshed for :data:`STALE_S` s (a dead run on another host).
+* A fresh run (no ``--restart``) refuses a folder holding results or checkpoints unless
+  ``--overwrite``, which deletes exactly those (:data:`RUN_FILES`, ``checkpoints/``).
+* :func:`publish` makes summary.csv and results.h5 appear together: both are written in
+  ``OUT/.publish/``, ``manifest.json`` is removed, both are renamed into ``OUT``, the folder is
+  fsynced and a new ``manifest.json`` (sizes and SHA-256 of both, blocks done, status) is
+  written last. Without a manifest, or when it does not match, the pair is not one run's.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import hashlib
+import json
+import os
+import shutil
+import socket
+import threading
+import time
+from collections.abc import Callable
+from pathlib import Path
+
+from micropit_hpc.errors import MicropitError, collective
+
+LOCK = ".micropit.lock"
+MANIFEST = "manifest.json"
+STAGING = ".publish"
+#: What a run leaves in its folder (besides ``checkpoints/``): refused or cleared by a fresh run.
+RUN_FILES = ("summary.csv", "results.h5", MANIFEST)
+HEARTBEAT_S = 30.0
+STALE_S = 600.0
+JOB_VARS = ("SLURM_JOB_ID", "PBS_JOBID", "LSB_JOBID")
+
+
+def _job_id() -> str | None:
+    return next((os.environ[v] for v in JOB_VARS if os.environ.get(v)), None)
+
+
+def _fsync_dir(path: Path) -> None:
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def _start_time(pid: int) -> str | None:
+    """The start time of process ``pid`` (Linux /proc, clock ticks since boot), or None."""
+    try:
+        with open(f"/proc/{pid}/stat") as fh:
+            return fh.read().rsplit(")", 1)[1].split()[19]
+    except (OSError, IndexError):
+        return None
+
+
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def stale_reason(info: dict, age_s: float) -> str | None:
+    """Why the lock described by ``info`` (age ``age_s`` s since its last refresh) belongs to
+    no live run, or None if it may."""
+    job = info.get("job")
+    if job and job in (_job_id(), os.environ.get("MICROPIT_PREVIOUS_JOB")):
+        return f"left by job {job} (this job before a requeue, or the previous job of the chain)"
+    if info.get("host") == socket.gethostname():
+        pid = info.get("pid")
+        if isinstance(pid, int) and not _pid_alive(pid):
+            return f"its process {pid} on {info['host']} is gone"
+        started = info.get("pid_start")
+        if isinstance(pid, int) and started and _start_time(pid) not in (None, started):
+            return f"its process {pid} on {info['host']} is gone (the pid is another process now)"
+    if age_s > STALE_S:
+        return f"not refreshed for {age_s:.0f} s (a live run refreshes it every {HEARTBEAT_S:g} s)"
+    return None
+
+
+class OutputLock:
+    """The lock of an output folder, held by rank 0 (see the module docstring)."""
+
+    def __init__(self, out: Path, log: Callable[[str], None] = lambda s: None):
+        self.path = Path(out) / LOCK
+        self.log = log
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def acquire(self) -> None:
+        info = {"host": socket.gethostname(), "pid": os.getpid(),
+                "pid_start": _start_time(os.getpid()), "job": _job_id(),
+                "started_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")}
+        for _attempt in range(3):
+            try:
+                fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
+            except FileExistsError:
+                self._break_if_stale()
+                continue
+            except OSError as e:
+                raise MicropitError(f"cannot create the lock file {self.path}: "
+                                    f"{e.strerror or e}") from None
+            with os.fdopen(fd, "w") as fh:
+                json.dump(info, fh)
+                fh.write("\n")
+            self._thread = threading.Thread(target=self._beat, daemon=True,
+                                            name="micropit-lock")
+            self._thread.start()
+            return
+        raise MicropitError(f"cannot take the lock file {self.path} (it keeps reappearing: "
+                            "another run is starting in the same folder)")
+
+    def _break_if_stale(self) -> None:
+        try:
+            text = self.path.read_text()
+            age = time.time() - self.path.stat().st_mtime
+        except FileNotFoundError:
+            return
+        try:
+            info = json.loads(text)
+            if not isinstance(info, dict):
+                raise ValueError
+        except ValueError:
+            info = {}
+        why = stale_reason(info, age) if info else "it is not a micropit lock file"
+        if why is None:
+            holder = ", ".join(f"{k} {info[k]}" for k in ("host", "pid", "job", "started_utc")
+                               if info.get(k))
+            raise MicropitError(
+                f"--out {self.path.parent} is in use by another run ({holder}; lock file "
+                f"{self.path}): wait for it, use another --out, or, if no run uses this folder "
+                f"any more, remove the lock file")
+        self.log(f"taking over the stale lock {self.path}: {why}")
+        self.path.unlink(missing_ok=True)
+
+    def _beat(self) -> None:
+        while not self._stop.wait(HEARTBEAT_S):
+            with contextlib.suppress(OSError):
+                os.utime(self.path)
+
+    def release(self) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join(timeout=5)
+            self._thread = None
+            self.path.unlink(missing_ok=True)
+
+
+def run_leftovers(out: Path) -> list[str]:
+    """The files of a previous run in ``out`` (results, manifest, checkpoints)."""
+    found = [n for n in RUN_FILES if (out / n).exists()]
+    ck = out / "checkpoints"
+    if ck.is_dir():
+        found += [f"checkpoints/{p.name}" for p in sorted(ck.iterdir())
+                  if p.name.startswith("ckpt_") or p.name == "LATEST"]
+    return found
+
+
+def clear_run(out: Path) -> None:
+    """Delete what :func:`run_leftovers` lists (and the staging folder), nothing else."""
+    for n in RUN_FILES:
+        (out / n).unlink(missing_ok=True)
+    shutil.rmtree(out / "checkpoints", ignore_errors=True)
+    shutil.rmtree(out / STAGING, ignore_errors=True)
+    _fsync_dir(out)
+
+
+def prepare(out: Path, comm, *, restart: bool, overwrite: bool,
+            log: Callable[[str], None]) -> OutputLock | None:
+    """Create ``out``, take its lock and check (or, with ``overwrite``, clear) what a previous
+    run left there; rank 0 decides, every rank gets the verdict (collective). Returns the lock
+    on rank 0 (None elsewhere): release it when the run ends."""
+    lock, problem = None, None
+    if comm.rank == 0:
+        try:
+            try:
+                out.mkdir(parents=True, exist_ok=True)
+            except OSError as e:
+                raise MicropitError(f"cannot create --out {out}: {e.strerror or e}") from None
+            lock = OutputLock(out, log)
+            lock.acquire()
+            found = run_leftovers(out)
+            if found and not restart:
+                if not overwrite:
+                    shown = ", ".join(found[:4]) + (" …" if len(found) > 4 else "")
+                    raise MicropitError(
+                        f"--out {out} holds another run's results or checkpoints ({shown}): "
+                        f"--restart continues that run, --overwrite deletes them and starts "
+                        f"afresh; or choose another --out")
+                clear_run(out)
+                log(f"--overwrite: deleted {len(found)} files of the previous run in {out}")
+        except (MicropitError, OSError) as e:
+            if lock is not None:
+                lock.release()
+                lock = None
+            problem = str(e) if isinstance(e, MicropitError) else f"--out {out}: {e}"
+    if comm.size > 1:
+        problem = comm.bcast(problem, root=0)
+    if problem:
+        raise collective(MicropitError(problem))
+    return lock
+
+
+def _sha256(path: Path) -> str:
+    h = hashlib.sha256()
+    with open(path, "rb") as fh:
+        for chunk in iter(lambda: fh.read(1 << 20), b""):
+            h.update(chunk)
+    return h.hexdigest()
+
+
+def staging(out: Path) -> Path:
+    """The folder to write the files of :func:`publish` in (created empty)."""
+    d = Path(out) / STAGING
+    shutil.rmtree(d, ignore_errors=True)
+    d.mkdir(parents=True)
+    return d
+
+
+def publish(out: Path, names: tuple[str, ...], meta: dict) -> Path:
+    """Move ``names`` from :func:`staging` into ``out`` as one publication and write
+    ``manifest.json`` last (see the module docstring). Returns the manifest's path."""
+    from micropit_hpc.report import write_text_atomic
+
+    out = Path(out)
+    stage = out / STAGING
+    files = {n: {"bytes": (stage / n).stat().st_size, "sha256": _sha256(stage / n)}
+             for n in names}
+    (out / MANIFEST).unlink(missing_ok=True)
+    _fsync_dir(out)
+    for n in names:
+        os.replace(stage / n, out / n)
+    _fsync_dir(out)
+    manifest = {"files": files, **meta,
+                "published_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")}
+    write_text_atomic(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
+    _fsync_dir(out)
+    shutil.rmtree(stage, ignore_errors=True)
+    return out / MANIFEST
+
+
+def check_manifest(out: Path) -> str | None:
+    """Why summary.csv and results.h5 in ``out`` are not one publication, or None."""
+    out = Path(out)
+    try:
+        manifest = json.loads((out / MANIFEST).read_text())
+    except (OSError, ValueError) as e:
+        return f"{out / MANIFEST}: {e}"
+    for n, want in manifest.get("files", {}).items():
+        if not (out / n).is_file() or _sha256(out / n) != want.get("sha256"):
+            return f"{out / n} does not match {out / MANIFEST}"
+    return None
