@@ -94,7 +94,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     from micropit_hpc.parallel import world
     from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
     from micropit_hpc.parallel.petsc import init_petsc, option, options_left_warning, stage
-    from micropit_hpc.progress import NullProgress, Progress
+    from micropit_hpc.progress import NullProgress, Progress, block_fraction, inside_note
     from micropit_hpc.runner import RunOptions, run_study
     from micropit_hpc.scene import load_scene
     from micropit_hpc.study import SUMMARY_COLUMNS, summary_rows
@@ -110,8 +110,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
         except OSError as e:
             raise MicropitError(f"cannot create --out {out}: {e.strerror or e}") from None
 
-    def log(msg: str) -> None:
-        if rank0:
+    def log(msg: str) -> None:    # --quiet keeps the warnings only
+        if rank0 and not (args.quiet and not msg.startswith("warning")):
             print(f"# {msg}", file=sys.stderr, flush=True)
 
     opts = RunOptions(
@@ -129,8 +129,14 @@ def _cmd_run(args: argparse.Namespace) -> int:
     progress = [None]
 
     def on_start(blocks: int, start: int) -> None:
-        progress[0] = (Progress(blocks, "blocks", initial=start) if rank0
+        progress[0] = (Progress(blocks, "blocks", initial=start) if rank0 and not args.quiet
                        else NullProgress(blocks, "blocks"))
+        progress[0].update(start, "starting")      # the first line, before any block work
+
+    def on_progress(k: int, item, i: int, n: int, done: float, total: float, sub: int,
+                    step: int, steps: int) -> None:
+        progress[0].update(block_fraction(k, i, n, done, total),
+                           inside_note(k, item, i, n, done, total, sub, step, steps))
 
     life = scene.life
     why_wear = ("for a stable wear update" if life.wear_integration == "explicit" else
@@ -161,7 +167,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
         progress[0].update(k, f"{k * len(records)} item-blocks of {blocks * len(records)}, "
                               f"max A_p body 1 {ap:.3g} %")
 
-    outcome = run_study(scene, opts, comm, log, on_block, on_start)
+    outcome = run_study(scene, opts, comm, log, on_block, on_start, on_progress)
     if progress[0] is not None:
         progress[0].close()
     study = outcome.study
@@ -307,6 +313,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-wall", type=_wall_time, default=None, metavar="TIME",
                    help="wall-time budget (seconds or [D-]H:M:S): stop at the block "
                         "boundary where the next block would overrun it, checkpoint, exit 85")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress lines or notes on stderr (warnings and errors only)")
     p.add_argument("--stop-file", default=None, metavar="FILE",
                    help="stop at the next block boundary once FILE exists (checkpoint, "
                         "exit 85)")

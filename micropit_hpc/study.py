@@ -118,8 +118,9 @@ class ItemRun:
                                    comm=comm)
         self.state: LifeState = initial_state(self.cycle)
 
-    def run_block(self, cycles: float | None = None) -> BlockRecord:
-        return run_block(self.cycle, self.state, self.params, cycles)
+    def run_block(self, cycles: float | None = None,
+                  on_progress: Callable[..., None] | None = None) -> BlockRecord:
+        return run_block(self.cycle, self.state, self.params, cycles, on_progress)
 
 
 def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord],
@@ -184,13 +185,18 @@ class Study:
         life = self.scene.life
         return min(life.block, life.cycles - (k - 1) * life.block)
 
-    def run_block(self, k: int) -> dict[int, BlockRecord]:
+    def run_block(self, k: int, on_progress: Callable[..., None] | None = None
+                  ) -> dict[int, BlockRecord]:
         """Block k of every item of this group; returns {item id: record} on every rank of
-        the world, gathered in item order."""
+        the world, gathered in item order. ``on_progress(k, item, i, n, cycles_done,
+        block_cycles, sub_block, step, steps)``: called on every rank of this group after
+        every time step (item: the :class:`WorkItem`, i-th of this group's n items)."""
         local = {}
-        for it in self.mine:
+        for i, it in enumerate(self.mine):
+            hook = None if on_progress is None else (
+                lambda *a, it=it, i=i: on_progress(k, it, i, len(self.mine), *a))
             try:
-                rec = self.runs[it.id].run_block(self.block_cycles(k))
+                rec = self.runs[it.id].run_block(self.block_cycles(k), hook)
             except MicropitError as e:   # say which item failed: the scene may hold dozens
                 raise MicropitError(
                     f"{self.scene.source}: item {it.id} (position {it.position}, k_lub "
