@@ -16,6 +16,12 @@ from micropit_hpc.parallel import launcher_rank
 EXIT_USER_ERROR = 2
 
 
+def _warn_scene(scene) -> None:
+    """The scene's plausibility warnings on stderr (rank 0 only: the caller checks)."""
+    for w in scene.warnings:
+        print(f"micropit: warning: {w}", file=sys.stderr, flush=True)
+
+
 def _cmd_contact(args: argparse.Namespace) -> int:
     from micropit_hpc.conditions import contact_study
     from micropit_hpc.parallel import world
@@ -25,6 +31,7 @@ def _cmd_contact(args: argparse.Namespace) -> int:
     comm = world()
     study = contact_study(load_scene(args.scene))
     if comm.rank == 0:
+        _warn_scene(study.scene)
         table = contact_csv(study)
         print("\n".join("# " + line for line in path_summary(study)))
         print(table, end="", flush=True)
@@ -124,6 +131,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
         raise MicropitError("-micropit_checkpoint_keep and -micropit_checkpoint_every must be "
                             f"at least 1, got {opts.keep} and {opts.checkpoint_every}")
     t0 = time.perf_counter()
+    for w in scene.warnings:
+        log(f"warning: {w}")
+    if scene.lubricant.derived:
+        log(scene.lubricant.derived)
     log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item, "
         f"blocks of {scene.life.block / 1e6:g} M cycles to {scene.life.cycles / 1e6:g} M")
     progress = [None]
@@ -237,6 +248,9 @@ def _cmd_scene(args: argparse.Namespace) -> int:
         else:
             what = f"disc rig, {len(scene.disc.slide_roll)} slide-roll ratios"
         print(f"{path}: valid scene '{scene.name}': {what}")
+        if scene.lubricant.derived:
+            print(f"  {scene.lubricant.derived}")
+        _warn_scene(scene)
     return 0
 
 

@@ -44,6 +44,8 @@ def path_summary(study: ContactStudy) -> list[str]:
     scene = study.scene
     out = [f"study {scene.name} ({scene.source}): {len(study.conditions)} positions"]
     E_note = ("set by hertz.E_star_GPa" if scene.hertz_E_star is not None else "= E'/2")
+    if scene.lubricant.derived:
+        out.append(scene.lubricant.derived)
     out.append(f"moduli: E' = {study.E_prime / 1e9:.2f} GPa (film), E* = "
                f"{study.E_star / 1e9:.2f} GPa (Hertz, {E_note})")
     if study.mesh is not None:
