@@ -135,6 +135,10 @@ def _cmd_run(args: argparse.Namespace) -> int:
         log(f"warning: {w}")
     if scene.lubricant.derived:
         log(scene.lubricant.derived)
+    from micropit_hpc.conditions import contact_study
+    from micropit_hpc.iso6336_22 import method_b
+    for line in method_b(contact_study(scene)).lines():
+        log(line)
     log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item, "
         f"blocks of {scene.life.block / 1e6:g} M cycles to {scene.life.cycles / 1e6:g} M")
     progress = [None]
@@ -188,7 +192,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
             rows = []
             for it in study.items:
                 run_c = study.base.conditions[it.position - 1]
-                rows += summary_rows(it, run_c, outcome.records[it.id], study.item_lambda(it))
+                rows += summary_rows(it, run_c, outcome.records[it.id], study.item_lambda(it),
+                                     study.item_lambda_gf(it), study.method_b.lambda_gfp)
             meta = {"ranks": comm.size, "ranks_per_item": args.ranks_per_item,
                     "wall_s": time.perf_counter() - t0, "status": outcome.status,
                     "blocks_done": outcome.blocks_done, "restarted_from_block":

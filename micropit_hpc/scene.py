@@ -91,6 +91,10 @@ gear 2 is the wheel (body 2). Give either `[gear]` with `[positions]`, or `[disc
         "stresses exceed the S–N line's one-cycle strength that alone pits 11 % of the "
         "flank (docs/validation/findings.md). Default 0: positions as given.", "deg", DEG,
         default=0.0, lo=0, hi=1),
+    Key("material_factor_WW", "material_factor_ww", "float", "Material factor W_W of "
+        "ISO/TS 6336-22 Method B in λ_GFP = 1.4 W_W λ_GFT (1.0 for case-carburised steel, the "
+        "test gears' material; other values from the standard's table for the flanks' "
+        "material and heat treatment).", default=1.0, lo=0, hi=5, lo_open=True),
 ), children=("pinion", "wheel"))
 
 
@@ -533,6 +537,7 @@ class GearSpec:
     accuracy_grade: int
     slide_roll_imposed: float | None = None
     pitch_snap: float = 0.0
+    material_factor_ww: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -825,6 +830,12 @@ def _lubricant_by_grade(lub: Lubricant, source: str) -> Lubricant:
         raise SceneError(source, "give either lubricant.iso_vg or lubricant.nu40_cSt, not "
                                  "both", key="lubricant.nu40_cSt", value=lub.nu40 * 1e6)
     nu40 = lub.nu40 * 1e6 if lub.nu40 is not None else lub.iso_vg
+    if lub.load_stage is not None and lub.lambda_gft is None and lub.nu100 is None:
+        raise SceneError(source, "λ_GFT from the micropitting load stage needs the oil by "
+                                 "grade (iso_vg or nu40_cSt, nu100_cSt, temperature_C) for its "
+                                 "viscosity at the test temperature; or give "
+                                 "lubricant.lambda_GFT", key="lubricant.micropitting_load_stage",
+                         value=lub.load_stage)
     grade_keys = {"iso_vg": lub.iso_vg, "nu40_cSt": lub.nu40, "nu100_cSt": lub.nu100,
                   "temperature_C": lub.temperature_C}
     if all(v is None for v in grade_keys.values()):
@@ -923,7 +934,8 @@ def _read_gear(table: Mapping[str, Any], source: str) -> tuple[GearSpec, GearMes
                          ) from None
     spec = GearSpec(geometry=geo, torque=g["torque"], speed=g["speed"],
                     load_sharing=g["load_sharing"], accuracy_grade=g["accuracy_grade"],
-                    slide_roll_imposed=g["slide_roll_imposed"], pitch_snap=g["pitch_snap"])
+                    slide_roll_imposed=g["slide_roll_imposed"], pitch_snap=g["pitch_snap"],
+                    material_factor_ww=g["material_factor_ww"])
     return spec, mesh
 
 

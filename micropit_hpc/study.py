@@ -22,6 +22,7 @@ from micropit_hpc.conditions import ContactStudy, contact_study
 from micropit_hpc.cycle import PositionCycle, body_surface, reference_half_width, window_grid
 from micropit_hpc.errors import MicropitError, SceneError
 from micropit_hpc.film import iso_lambda_gf
+from micropit_hpc.iso6336_22 import method_b
 from micropit_hpc.life import (
     BlockRecord,
     LifeParams,
@@ -36,7 +37,7 @@ from micropit_hpc.surfaces import Topography
 __all__ = ["SUMMARY_COLUMNS", "ItemRun", "Study", "WorkItem", "summary_rows", "work_items"]
 
 SUMMARY_COLUMNS = ("item", "position", "S", "p0_GPa", "Lambda", "k_lub_s", "body", "cycles",
-                   "Ap_pct", "max_damage", "wear_um", "Rq_um")
+                   "Ap_pct", "max_damage", "wear_um", "Rq_um", "lambda_GF", "S_lambda")
 
 
 @dataclass(frozen=True)
@@ -124,15 +125,19 @@ class ItemRun:
 
 
 def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord],
-                 lambda_: float) -> list[tuple]:
+                 lambda_: float, lambda_gf: float = math.nan,
+                 lambda_gfp: float = math.nan) -> list[tuple]:
     """Rows of summary.csv (:data:`SUMMARY_COLUMNS`) for one item (contact conditions ``c``),
-    one per body and block."""
+    one per body and block. ``lambda_gf``: the item's ISO/TS 6336-22 λ_GF; ``S_lambda`` =
+    λ_GF/λ_GFP at the item's position (the standard's S_λ is its minimum over the path,
+    :mod:`micropit_hpc.iso6336_22`)."""
     rows = []
     for r in records:
         for body in (1, 2):
             rows.append((item.id, item.position, c.S, c.p0 / 1e9, lambda_, item.k_lub, body,
                          r.cycles, r.Ap[body - 1], r.max_damage[body - 1],
-                         r.wear_mean[body - 1] * 1e6, r.Rq[body - 1] * 1e6))
+                         r.wear_mean[body - 1] * 1e6, r.Rq[body - 1] * 1e6, lambda_gf,
+                         lambda_gf / lambda_gfp))
     return rows
 
 
@@ -150,6 +155,7 @@ class Study:
 
         self.scene, self.comm, self.log = scene, comm, log or (lambda s: None)
         self.base = contact_study(scene)
+        self.method_b = method_b(self.base)      # ISO/TS 6336-22 Method B beside A_p
         n_pos = len(self.base.conditions)
         if positions is not None:
             bad = [p for p in positions if not 1 <= p <= n_pos]
