@@ -167,6 +167,9 @@ def test_quick_scene_runs_and_the_flank_plot_reads_it(tmp_path):
     pitch = rows[1]                                   # the middle of A-E: the pitch point
     assert abs(float(pitch["S"])) < 1e-9
     assert float(pitch["Ap1_pct"]) == 0.0 and float(pitch["Ap2_pct"]) == 0.0
+    for r in rows:     # Method B beside A_p: no oil rating in quick.toml, so no λ_GFP
+        assert float(r["lambda_GF"]) > 0 and math.isnan(float(r["lambda_GFP"]))
+        assert math.isnan(float(r["S_lambda"]))
     assert (out / "flank.png").stat().st_size > 10_000
     run = subprocess.run([sys.executable, str(ROOT / "postprocess" / "plot_life.py"), str(out)],
                          capture_output=True, text=True, timeout=120)

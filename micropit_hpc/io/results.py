@@ -105,6 +105,12 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
                          ("S_lambda", mb.s_lambda)):
                 iso.attrs[k] = v
             iso.attrs["summary"] = "\n".join(mb.lines())
+            mesh = study.base.mesh
+            if mesh is not None:   # the path points A–E, for plots [rad, roll angle of gear 1]
+                pts = f.create_group("path")
+                for label in "ABCDE":
+                    pts.attrs[f"{label}_roll_angle"] = float(mesh.roll_angle(getattr(mesh,
+                                                                                    label)))
             hist = f.create_group("history")
             for iid, recs in records.items():
                 g = hist.create_group(f"item_{iid:05d}")
