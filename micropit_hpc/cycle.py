@@ -83,7 +83,8 @@ def body_surface(scene: Scene, body: int, grid: Grid, patch: int = 0) -> Topogra
             return self_affine_surface(grid, b.Rq, spec.hurst, long_c, short_c, seed, spawn)
         topo = read_topography(spec.file, dataset=spec.dataset, spacing=spec.spacing,
                                height_unit=spec.height_unit, nan_policy=spec.nan_policy)
-        topo = topo.detrended(spec.detrend).periodised(spec.periodise).resampled(grid)
+        topo = topo.detrended(spec.detrend).periodised(spec.periodise, keep_rq=True
+                                                       ).resampled(grid)
     except TopographyError as e:
         raise SceneError(scene.source, f"{key}: {e}") from None
     if spec.rescale:

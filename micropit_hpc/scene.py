@@ -166,7 +166,9 @@ made periodic, resampled to the window grid and checked against `Rq_um`.
         Key("dataset", "dataset", "str", "HDF5 dataset (or instrument channel) to read.",
             default=None),
         Key("spacing_um", "spacing", "floats", "Grid spacing [Δx, Δy] of a map that does not "
-            "store it (`.npy`, text).", "µm", UM, default=None, lo=0, lo_open=True),
+            "store it (`.npy`, text, instrument files without sizes). A file's own spacing "
+            "(`.npz`, HDF5, `.x3p`, …) is used unless this is given; the run log says which "
+            "was used and what it overrode.", "µm", UM, default=None, lo=0, lo_open=True),
         Key("height_unit", "height_unit", "str", "Unit of the heights stored in the file.",
             default="m", choices=("m", "mm", "um", "nm")),
         Key("detrend", "detrend", "str", "Detrending of a measured map (`quadratic` also "
@@ -176,7 +178,9 @@ made periodic, resampled to the window grid and checked against `Rq_um`.
             "fill with the mean, or interpolate from the neighbours.", default="error",
             choices=("error", "fill_mean", "interpolate")),
         Key("periodise", "periodise", "str", "How a measured map is made to tile without a "
-            "step: `tukey` taper of the edges, `mirror` (even reflection), `none`.",
+            "step: `tukey` taper of the edges (the deviations are then scaled back to the "
+            "map's R_q, which the taper alone lowers by ~14 %), `mirror` (even reflection), "
+            "`none`.",
             default="tukey", choices=("none", "tukey", "mirror")),
         Key("rescale", "rescale", "bool", "Scale a measured map to the body's `Rq_um` (by "
             "default its R_q must agree with `Rq_um` within 5 %).", default=False),

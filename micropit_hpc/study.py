@@ -115,6 +115,7 @@ class ItemRun:
                 log(f"item {item.id}: rainflow counting raises the time steps from "
                     f"{scene.window.steps} to {steps} (slip per step ≤ λ_c/4, λ_c = "
                     f"{lam_c * 1e6:.3g} µm)")
+        self.surfaces = surfaces
         self.cycle = PositionCycle(study, item.position, surfaces=surfaces, steps=steps,
                                    comm=comm)
         self.state: LifeState = initial_state(self.cycle)
@@ -185,6 +186,12 @@ class Study:
         """Build this group's items (surfaces, solvers, fresh state). Collective."""
         for it in self.mine:
             self.runs[it.id] = ItemRun(self.scene, it, self.base, self.log, self.group.comm)
+        if self.runs:   # how each measured map was read (spacing from the file or the scene)
+            first = next(iter(self.runs.values()))
+            for i, (body, top) in enumerate(zip((self.scene.body1, self.scene.body2),
+                                                first.surfaces, strict=True), start=1):
+                if body.surface.kind == "file":
+                    self.log(f"body{i}.surface: {top.provenance}")
 
     def block_cycles(self, k: int) -> float:
         """Cycles of block k (1-based): ΔN, the last block shortened to the life."""
