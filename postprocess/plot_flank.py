@@ -118,9 +118,10 @@ def plot(rows: list[dict], out: Path, title: str, path: dict | None = None) -> N
             ax.errorbar(x, y, yerr=[lo, hi], marker="o", capsize=3, zorder=3,
                         label=f"k_lub = {klub:g} s")
         ax.set_ylabel(f"A_p body {body} [%]\n({'driver' if body == 1 else 'driven'})")
-        ax.set_ylim(bottom=0)
+        top = max((r[f"Ap{body}_max"] for r in rows), default=0.0)
+        ax.set_ylim(0, 1.12 * top if top > 0 else 1.0)     # room above the highest mark
         ax.grid(alpha=0.3)
-    a1.legend(fontsize=8, loc="upper left")
+    a1.legend(fontsize=8, loc="best")
     xs = [r["roll_angle_deg"] for r in rows]
     mark_path(ap0, pts)
     ap0.plot(xs, [r["p0_GPa"] for r in rows], "ko-", lw=1, ms=4, label="p0")

@@ -2,9 +2,9 @@
 the damage-risk maps (max over depth of the Miner damage, pits in red) and the final heights of
 both bodies, like the paper's Fig. 6 and Fig. 9. Items are labelled by position (roll angle and
 S for a gear, S for a rig), with the wear coefficient, roughness scale and patch where a study
-varies them. The damage risk is on its fixed scale 0–1; each height map has a robust scale
-(its 1st to 99th percentile, the colour bar extended at both ends), so that a few deep pits
-or spikes do not wash out the roughness.
+varies them. The damage risk is on its fixed scale 0–1; each height map has a robust scale,
+the 1st to 99th percentile of its intact (unpitted) points, with the colour bar extended at
+both ends and the pits in red, so that deep pits or spikes do not wash out the roughness.
 
     python postprocess/plot_life.py RUN_DIR [--out RUN_DIR/life.png] [--body 1|2]
         [--max-items 6]
@@ -123,10 +123,13 @@ def main() -> int:
                                  f"{100 * pitted.mean():.3g} %")
                         extend = "neither"
                     else:
-                        hlo, hhi = robust_limits([img])
+                        hlo, hhi = robust_limits([img[~pitted] if (~pitted).any() else img])
                         im = axm.imshow(img, origin="lower", extent=ext, aspect="auto",
                                         cmap="gray", vmin=hlo, vmax=hhi)
-                        title = f"body {b} heights [µm]"
+                        axm.imshow(np.ma.masked_where(~pitted, pitted), origin="lower",
+                                   extent=ext, aspect="auto", cmap=ListedColormap(["red"]),
+                                   alpha=0.6)
+                        title = f"body {b} heights [µm], pits red"
                         extend = "both"
                     if r == 0 and j == 0:
                         title = f"{labels[iid]}\n{title}"

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import hashlib
 import importlib
+import os
 import platform
 from pathlib import Path
 
@@ -36,7 +37,8 @@ def library_versions() -> dict[str, str]:
         pass
     try:
         from mpi4py import MPI
-        out["mpi_library"] = MPI.Get_library_version().strip().splitlines()[0]
+        out["mpi_library"] = MPI.Get_library_version().replace("\x00", "").strip(
+            ).splitlines()[0]
     except Exception:
         pass
     try:
@@ -57,8 +59,8 @@ def sha256_file(path: str | Path) -> str:
 
 
 def input_hashes(scene) -> dict[str, str]:
-    """{path: SHA-256} of the scene file and of the measured maps (``surface.kind = "file"``)
-    of both bodies; a file that cannot be read is recorded as "unreadable"."""
+    """{absolute path: SHA-256} of the scene file and of the measured maps (``surface.kind =
+    "file"``) of both bodies; a file that cannot be read is recorded as "unreadable"."""
     paths = [scene.source]
     for body in (scene.body1, scene.body2):
         if body.surface.kind == "file" and body.surface.file:
@@ -66,7 +68,7 @@ def input_hashes(scene) -> dict[str, str]:
     out = {}
     for p in paths:
         try:
-            out[str(p)] = sha256_file(p)
+            out[os.path.abspath(p)] = sha256_file(p)
         except OSError:
-            out[str(p)] = "unreadable"
+            out[os.path.abspath(p)] = "unreadable"
     return out
