@@ -146,12 +146,13 @@ def _cmd_run(args: argparse.Namespace) -> int:
     def on_start(blocks: int, start: int) -> None:
         progress[0] = (Progress(blocks, "blocks", initial=start) if rank0 and not args.quiet
                        else NullProgress(blocks, "blocks"))
-        progress[0].update(start, "starting")      # the first line, before any block work
+        progress[0].update(start, "starting", milestone=False)   # the first line, at once
 
     def on_progress(k: int, item, i: int, n: int, done: float, total: float, sub: int,
                     step: int, steps: int) -> None:
         progress[0].update(block_fraction(k, i, n, done, total),
-                           inside_note(k, item, i, n, done, total, sub, step, steps))
+                           inside_note(k, item, i, n, done, total, sub, step, steps),
+                           milestone=False)
 
     life = scene.life
     why_wear = ("for a stable wear update" if life.wear_integration == "explicit" else

@@ -32,8 +32,9 @@ import numpy as np
 
 from micropit_hpc.errors import SceneError
 
-#: Pinion torque [N·m] of the FZG load stages (FZG test rig, DIN ISO 14635-1 / FVA 54).
-FZG_TORQUE_NM = {1: 3.3, 2: 13.7, 3: 35.3, 4: 60.8, 5: 94.1, 6: 135.3, 7: 183.4, 8: 239.3,
+#: Pinion torque [N·m] of the FZG load stages (FZG test rig, DIN ISO 14635-1 / FVA 54; the
+#: table as widely quoted; not re-checked against the standard's text here).
+FZG_TORQUE_NM = {1: 3.3, 2: 13.7, 3: 35.3, 4: 60.8, 5: 94.1, 6: 135.5, 7: 183.4, 8: 239.3,
                  9: 302.0, 10: 372.6, 11: 450.1, 12: 534.5}
 #: λ_GFP = LAMBDA_GFP_FACTOR W_W λ_GFT (ISO/TS 6336-22 Method B).
 LAMBDA_GFP_FACTOR = 1.4

@@ -52,6 +52,7 @@ class Progress:
         self.clock = clock
         self.t0 = clock()
         self._last_report = -math.inf
+        self._last_milestone = -math.inf
         self._last_done: int | None = None
         self._width = 0  # length of the bar now on the terminal line
         self._open_line = False
@@ -83,13 +84,17 @@ class Progress:
         return (f"[progress] {shown}/{self.total} {self.label} ({pct:.0f}%) elapsed {elapsed} "
                 f"ETA {eta}{tail}")
 
-    def update(self, done: float, note: str = "") -> None:
-        """Report ``done`` units (rate-limited, except for the final report)."""
+    def update(self, done: float, note: str = "", milestone: bool = True) -> None:
+        """Report ``done`` units (rate-limited, except for the final report). Milestones (a
+        unit done) are limited against the last milestone only, so reports inside a unit
+        (``milestone=False``, limited against any report) never hold back the first unit's
+        line."""
         now = self.clock()
         final = done >= self.total
         if final and self._last_done == done:
             return  # the final report once
-        if not final and now - self._last_report < self.min_interval_s:
+        last = self._last_milestone if milestone else self._last_report
+        if not final and now - last < self.min_interval_s:
             return
         text = self.line(done, note, now)
         if self.tty:
@@ -101,6 +106,8 @@ class Progress:
             self.stream.write(text + "\n")
         self.stream.flush()
         self._last_report, self._last_done = now, done
+        if milestone:
+            self._last_milestone = now
 
     def close(self) -> None:
         """End the bar's line on a terminal (after an interrupted run)."""
@@ -141,7 +148,7 @@ class NullProgress:
     def __init__(self, *args, **kwargs):
         pass
 
-    def update(self, done: int, note: str = "") -> None:
+    def update(self, done: float, note: str = "", milestone: bool = True) -> None:
         pass
 
     def close(self) -> None:

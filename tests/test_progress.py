@@ -136,6 +136,21 @@ def test_fractional_progress_shows_two_decimals_and_an_eta():
                         "block 1: item 0")
 
 
+def test_reports_inside_a_unit_never_hold_back_the_first_units_line():
+    """The start line and the reports inside block 1 do not delay the line of block 1 done (a
+    job script waits for it), though they are rate-limited among themselves."""
+    p, clock, out = make(total=3)
+    p.update(0, "starting", milestone=False)
+    clock.t = 1.0
+    p.update(0.5, "inside", milestone=False)          # within 10 s of the start: held back
+    clock.t = 2.0
+    p.update(1, "block 1")                             # the first milestone: written
+    clock.t = 3.0
+    p.update(2, "block 2")                             # within 10 s of block 1: held back
+    lines = out.getvalue().splitlines()
+    assert [ln.split(" — ")[1] for ln in lines] == ["starting", "block 1"]
+
+
 def test_a_run_reports_inside_its_blocks_and_is_silent_with_quiet(tmp_path, capsys, monkeypatch):
     """`micropit run` writes a first line at once, then lines inside the block (item,
     sub-block, time step) with an ETA; --quiet writes none of them (warnings only)."""
@@ -163,4 +178,6 @@ def test_a_run_reports_inside_its_blocks_and_is_silent_with_quiet(tmp_path, caps
     assert err[-1].startswith("[progress] 1/1 blocks (100%)")
     assert main(["run", str(scene), "--out", str(tmp_path / "b"), "--quiet"]) == 0
     quiet = capsys.readouterr().err.splitlines()
-    assert quiet and all(ln.startswith("# warning:") for ln in quiet)   # warnings stay
+    assert any(ln.startswith("# warning: block 1") for ln in quiet)    # warnings stay
+    assert not [ln for ln in quiet if ln.startswith("[progress]")
+                or (ln.startswith("# ") and not ln.startswith("# warning:"))]
