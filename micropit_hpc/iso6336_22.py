@@ -73,7 +73,9 @@ class MethodB:
                f"½(R_a1 + R_a2) = {self.ra * 1e6:.4g} µm ({self.ra_note}); λ_GF,min = "
                f"{self.lambda_gf_min:.4g}"
                + (f" at roll angle {math.degrees(self.roll_angle_min):.3f} deg"
-                  if math.isfinite(self.roll_angle_min) else "")]
+                  if math.isfinite(self.roll_angle_min) and math.isfinite(self.lambda_gf_min)
+                  else " (smooth flanks: no roughness to compare the film with)"
+                  if self.ra == 0 else "")]
         if math.isfinite(self.lambda_gfp):
             verdict = ("≥ 1: micropitting not expected" if self.s_lambda >= 1.0
                        else "< 1: micropitting expected")
