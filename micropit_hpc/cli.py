@@ -17,6 +17,12 @@ from micropit_hpc.parallel import launcher_rank
 EXIT_USER_ERROR = 2
 
 
+def _warn_scene(scene) -> None:
+    """The scene's plausibility warnings on stderr (rank 0 only: the caller checks)."""
+    for w in scene.warnings:
+        print(f"micropit: warning: {w}", file=sys.stderr, flush=True)
+
+
 def _cmd_contact(args: argparse.Namespace) -> int:
     from micropit_hpc.conditions import contact_study
     from micropit_hpc.parallel import world
@@ -26,6 +32,7 @@ def _cmd_contact(args: argparse.Namespace) -> int:
     comm = world()
     study = contact_study(load_scene(args.scene))
     if comm.rank == 0:
+        _warn_scene(study.scene)
         table = contact_csv(study)
         print("\n".join("# " + line for line in path_summary(study)))
         print(table, end="", flush=True)
@@ -99,8 +106,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     rank0 = comm.rank == 0
     t0 = time.perf_counter()
 
-    def log(msg: str) -> None:
-        if rank0:
+    def log(msg: str) -> None:    # --quiet keeps the warnings only
+        if rank0 and not (args.quiet and not msg.startswith("warning")):
             say(f"# {msg}")
 
     # From here on SIGUSR1/SIGTERM are noted, never fatal, until the results are written; a
@@ -191,10 +198,12 @@ def _run_locked(args, comm, control, log, t0, scene, opts, n_blocks) -> str:
     """The run itself, in a locked output folder; returns "done" or "stopped"."""
     import time
 
+    from micropit_hpc.conditions import contact_study
     from micropit_hpc.io import outdir
     from micropit_hpc.io.results import write_results, write_summary
+    from micropit_hpc.iso6336_22 import method_b
     from micropit_hpc.parallel.petsc import stage
-    from micropit_hpc.progress import NullProgress, Progress
+    from micropit_hpc.progress import NullProgress, Progress, block_fraction, inside_note
     from micropit_hpc.regime import block_warning
     from micropit_hpc.runner import run_study
     from micropit_hpc.study import SUMMARY_COLUMNS, block_cycles, summary_rows
@@ -203,6 +212,12 @@ def _run_locked(args, comm, control, log, t0, scene, opts, n_blocks) -> str:
     out = opts.out
     last = block_cycles(scene, n_blocks)
     shorter = (f", the last of {last / 1e6:g} M" if last != scene.life.block else "")
+    for w in scene.warnings:
+        log(f"warning: {w}")
+    if scene.lubricant.derived:
+        log(scene.lubricant.derived)
+    for line in method_b(contact_study(scene)).lines():
+        log(line)
     log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item, "
         f"{n_blocks} blocks of {scene.life.block / 1e6:g} M cycles{shorter} to "
         f"{scene.life.cycles / 1e6:g} M")
@@ -210,8 +225,15 @@ def _run_locked(args, comm, control, log, t0, scene, opts, n_blocks) -> str:
 
     def on_start(blocks: int, start: int, study) -> None:
         the_study[0] = study
-        progress[0] = (Progress(blocks, "blocks", initial=start) if rank0
+        progress[0] = (Progress(blocks, "blocks", initial=start) if rank0 and not args.quiet
                        else NullProgress(blocks, "blocks"))
+        progress[0].update(start, "starting", milestone=False)   # the first line, at once
+
+    def on_progress(k: int, item, i: int, n: int, done: float, total: float, sub: int,
+                    step: int, steps: int) -> None:
+        progress[0].update(block_fraction(k, i, n, done, total),
+                           inside_note(k, item, i, n, done, total, sub, step, steps),
+                           milestone=False)
 
     life = scene.life
     why_wear = ("for a stable wear update" if life.wear_integration == "explicit" else
@@ -247,7 +269,8 @@ def _run_locked(args, comm, control, log, t0, scene, opts, n_blocks) -> str:
         progress[0].update(k, f"{k * len(records)} item-blocks of {blocks * len(records)}, "
                               f"max A_p body 1 {ap:.3g} %")
 
-    outcome = run_study(scene, opts, comm, log, on_block, on_start, control=control)
+    outcome = run_study(scene, opts, comm, log, on_block, on_start, control=control,
+                        on_progress=on_progress)
     if progress[0] is not None:
         progress[0].close()
     study = outcome.study
@@ -258,7 +281,9 @@ def _run_locked(args, comm, control, log, t0, scene, opts, n_blocks) -> str:
             for it in study.items:
                 run_c = study.base.conditions[it.position - 1]
                 rows += summary_rows(it, run_c, outcome.records[it.id], study.item_lambda(it),
-                                     study.z_max, not study.window_problems)
+                                     lambda_gf=study.item_lambda_gf(it),
+                                     lambda_gfp=study.method_b.lambda_gfp,
+                                     z_max=study.z_max, window_ok=not study.window_problems)
             meta = {"ranks": comm.size, "ranks_per_item": args.ranks_per_item,
                     "wall_s": time.perf_counter() - t0, "status": outcome.status,
                     "blocks_done": outcome.blocks_done, "restarted_from_block":
@@ -340,6 +365,9 @@ def _cmd_scene(args: argparse.Namespace) -> int:
         else:
             what = f"disc rig, {len(scene.disc.slide_roll)} slide-roll ratios"
         print(f"{path}: valid scene '{scene.name}': {what}")
+        if scene.lubricant.derived:
+            print(f"  {scene.lubricant.derived}")
+        _warn_scene(scene)
     return 0
 
 
@@ -440,6 +468,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ignore-memory-estimate", action="store_true",
                    help="run even when the up-front memory estimate (printed) exceeds the "
                         "memory available on this node")
+    p.add_argument("--quiet", action="store_true",
+                   help="no progress lines or notes on stderr (warnings and errors only)")
     p.add_argument("--stop-file", default=None, metavar="FILE",
                    help="stop at the next block boundary once FILE exists (checkpoint, "
                         "exit 85)")

@@ -85,15 +85,19 @@ def body_surface(scene: Scene, body: int, grid: Grid, patch: int = 0) -> Topogra
             return self_affine_surface(grid, b.Rq, spec.hurst, long_c, short_c, seed, spawn)
         topo = read_topography(spec.file, dataset=spec.dataset, spacing=spec.spacing,
                                height_unit=spec.height_unit, nan_policy=spec.nan_policy)
-        topo = topo.detrended(spec.detrend).periodised(spec.periodise).resampled(grid)
+        mapped = topo.detrended(spec.detrend).periodised(spec.periodise, keep_rq=True)
+        topo = mapped.resampled(grid)
     except TopographyError as e:
         raise SceneError(scene.source, f"{key}: {e}") from None
     if spec.rescale:
         return topo.scaled_to_rq(b.Rq)
     if abs(topo.rq - b.Rq) > 0.05 * b.Rq:
         raise SceneError(scene.source, f"the measured map has R_q = {topo.rq * 1e6:.4g} µm on "
-                                       "the window, more than 5 % from the body's R_q; set "
-                                       f"body{body}.Rq_um to it or {key}.rescale = true",
+                                       f"the window ({mapped.rq * 1e6:.4g} µm as read and "
+                                       f"detrended; the window is cut from it and sampled at "
+                                       f"{grid.dx * 1e6:.3g} µm), more than 5 % from the "
+                                       f"body's R_q; set body{body}.Rq_um to it or "
+                                       f"{key}.rescale = true",
                          key=f"body{body}.Rq_um",
                          value=scene.document.get(f"body{body}", {}).get("Rq_um", b.Rq * 1e6))
     return topo

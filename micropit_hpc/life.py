@@ -50,6 +50,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -277,14 +278,16 @@ def _around_pits(bs: BodyState) -> np.ndarray:
 
 
 def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams,
-                   warm: dict | None = None) -> CycleResult:
+                   warm: dict | None = None,
+                   on_step: Callable[[int], None] | None = None) -> CycleResult:
     """One load cycle on the current surfaces (MODEL.md §4): contact at every step, stresses
     and Dang Van per body, damage and wear per cycle.
 
     ``warm``: the contact solver's warm starts by time step, kept by the caller from one
     evaluation to the next (:meth:`PositionCycle.solve_step`); :func:`run_block` keeps them
     within a block and starts each block without, so that a run restarted from a block's
-    checkpoint repeats the straight run's numbers exactly."""
+    checkpoint repeats the straight run's numbers exactly. ``on_step(j)``: called after time
+    step j (1-based) of the contact, for progress reports."""
     t0 = time.perf_counter()
     g = cycle.grid
     if params.pit_contact == "unloaded":   # the surface around the pits; pits carry nothing
@@ -301,6 +304,8 @@ def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams,
             f = cycle.solve_step(j, p_prev, None if warm is None else warm.setdefault(j, {}))
         fields.append(f)
         p_prev = f.pressure
+        if on_step is not None:
+            on_step(j + 1)
     p_sum = sum(float(f.pressure.sum()) for f in fields)
     weights = np.array([f.p_mean for f in fields])
     phi = float((weights * [f.phi for f in fields]).sum() / weights.sum()) if weights.any() else 0.0
@@ -497,11 +502,14 @@ def rms_slope(heights: np.ndarray, dx: float) -> float:
 
 
 def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
-              cycles: float | None = None) -> BlockRecord:
+              cycles: float | None = None,
+              on_progress: Callable[..., None] | None = None) -> BlockRecord:
     """One block of ΔN load cycles (or ``cycles``): split adaptively
     (``integration = "adaptive"``) or in one step on the block's starting surfaces (the
     paper's scheme, ``"paper"``); returns its record. Collective over the cycle's group
-    (every rank returns the same record)."""
+    (every rank returns the same record).
+    ``on_progress(cycles_done, block_cycles, sub_block, step, steps)``: called after every
+    time step of every sub-block's load cycle (progress reports; changes nothing)."""
     t0 = time.perf_counter()
     slab = cycle.slab
     left = params.block if cycles is None else cycles
@@ -509,8 +517,11 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
     new_pits, low_pits = [0, 0], [0, 0]
     added, low_added, deep = [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]
     result, warm = None, {}
+    total = left
     while left > 0:
-        result = evaluate_cycle(cycle, state, params, warm)
+        step = None if on_progress is None else (
+            lambda j, d=n_done, s=subs + 1: on_progress(d, total, s, j, cycle.steps))
+        result = evaluate_cycle(cycle, state, params, warm, step)
         n = sub_block_cycles(state, result, left, params, slab)
         for i, bc in enumerate(result.bodies):
             intact = ~state.bodies[i].pitted[slab.rows]

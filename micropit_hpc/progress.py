@@ -14,6 +14,8 @@ from collections.abc import Callable
 from typing import TextIO
 
 BAR_WIDTH = 24
+#: The least seconds between two reports on a terminal and in a log (by default).
+TTY_INTERVAL_S, LOG_INTERVAL_S = 0.2, 10.0
 
 
 def format_duration(seconds: float) -> str:
@@ -45,16 +47,17 @@ class Progress:
             tty = bool(isatty and isatty())
         self.tty = tty
         self.min_interval_s = (min_interval_s if min_interval_s is not None
-                               else 0.2 if tty else 10.0)
+                               else TTY_INTERVAL_S if tty else LOG_INTERVAL_S)
         self.initial = int(initial)
         self.clock = clock
         self.t0 = clock()
         self._last_report = -math.inf
+        self._last_milestone = -math.inf
         self._last_done: int | None = None
         self._width = 0  # length of the bar now on the terminal line
         self._open_line = False
 
-    def eta(self, done: int, now: float | None = None) -> float:
+    def eta(self, done: float, now: float | None = None) -> float:
         """Seconds left at ``done`` units: mean time per unit so far × units left (NaN before
         the first unit of this run)."""
         now = self.clock() if now is None else now
@@ -63,9 +66,11 @@ class Progress:
             return math.nan
         return (now - self.t0) / run * max(0, self.total - done)
 
-    def line(self, done: int, note: str = "", now: float | None = None) -> str:
-        """The report at ``done`` units, without ``\\r`` or newline."""
+    def line(self, done: float, note: str = "", now: float | None = None) -> str:
+        """The report at ``done`` units (a fraction inside a unit shows two decimals),
+        without ``\\r`` or newline."""
         now = self.clock() if now is None else now
+        shown = f"{done:.2f}" if done != int(done) else f"{int(done)}"
         pct = 100.0 * done / self.total if self.total else 100.0
         elapsed = format_duration(now - self.t0)
         eta = format_duration(self.eta(done, now))
@@ -74,18 +79,22 @@ class Progress:
             frac = min(done, self.total) / self.total if self.total else 1.0
             fill = round(BAR_WIDTH * frac)
             bar = "#" * fill + "-" * (BAR_WIDTH - fill)
-            return (f"{self.label} [{bar}] {done}/{self.total} {pct:3.0f}% {elapsed} "
+            return (f"{self.label} [{bar}] {shown}/{self.total} {pct:3.0f}% {elapsed} "
                     f"ETA {eta}{tail}")
-        return (f"[progress] {done}/{self.total} {self.label} ({pct:.0f}%) elapsed {elapsed} "
+        return (f"[progress] {shown}/{self.total} {self.label} ({pct:.0f}%) elapsed {elapsed} "
                 f"ETA {eta}{tail}")
 
-    def update(self, done: int, note: str = "") -> None:
-        """Report ``done`` units (rate-limited, except for the final report)."""
+    def update(self, done: float, note: str = "", milestone: bool = True) -> None:
+        """Report ``done`` units (rate-limited, except for the final report). Milestones (a
+        unit done) are limited against the last milestone only, so reports inside a unit
+        (``milestone=False``, limited against any report) never hold back the first unit's
+        line."""
         now = self.clock()
         final = done >= self.total
         if final and self._last_done == done:
             return  # the final report once
-        if not final and now - self._last_report < self.min_interval_s:
+        last = self._last_milestone if milestone else self._last_report
+        if not final and now - last < self.min_interval_s:
             return
         text = self.line(done, note, now)
         if self.tty:
@@ -97,6 +106,8 @@ class Progress:
             self.stream.write(text + "\n")
         self.stream.flush()
         self._last_report, self._last_done = now, done
+        if milestone:
+            self._last_milestone = now
 
     def close(self) -> None:
         """End the bar's line on a terminal (after an interrupted run)."""
@@ -113,13 +124,31 @@ class Progress:
         self.close()
 
 
+def block_fraction(k: int, index: int, count: int, cycles_done: float,
+                   block_cycles: float) -> float:
+    """Blocks done inside block ``k`` (1-based) when the ``index``-th of ``count`` items (of
+    the reporting rank's group, run one after another) has done ``cycles_done`` of its
+    ``block_cycles``: (k − 1) + (index + cycles_done/block_cycles)/count."""
+    inside = cycles_done / block_cycles if block_cycles > 0 else 1.0
+    return (k - 1) + (index + min(max(inside, 0.0), 1.0)) / max(count, 1)
+
+
+def inside_note(k: int, item, index: int, count: int, cycles_done: float,
+                block_cycles: float, sub_block: int, step: int, steps: int) -> str:
+    """What a report inside block ``k`` says: the item by id and position, its place among
+    this group's items, the sub-block, the cycles of the block done and the time step."""
+    return (f"block {k}: item {item.id} (position {item.position}), {index + 1} of {count} "
+            f"on this rank, sub-block {sub_block}, {cycles_done / 1e6:.3g} of "
+            f"{block_cycles / 1e6:.3g} M cycles, step {step}/{steps}")
+
+
 class NullProgress:
     """The API of :class:`Progress` on ranks that do not report: does nothing."""
 
     def __init__(self, *args, **kwargs):
         pass
 
-    def update(self, done: int, note: str = "") -> None:
+    def update(self, done: float, note: str = "", milestone: bool = True) -> None:
         pass
 
     def close(self) -> None:

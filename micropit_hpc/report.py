@@ -10,7 +10,7 @@ from pathlib import Path
 from micropit_hpc.conditions import ContactStudy
 
 CONTACT_COLUMNS = ("position", "roll_angle_deg", "radial_pos_mm", "R_mm", "w_N_per_m", "p0_GPa",
-                   "b_um", "S", "u_mean_m_s", "hc_um", "Lambda", "region")
+                   "b_um", "S", "u_mean_m_s", "hc_um", "Lambda", "region", "lambda_GF")
 
 
 def _f(x: float, fmt: str) -> str:
@@ -23,11 +23,17 @@ def _f(x: float, fmt: str) -> str:
 
 
 def contact_csv(study: ContactStudy) -> str:
-    """One row per position, columns :data:`CONTACT_COLUMNS` (engineering units).
+    """One row per position, columns :data:`CONTACT_COLUMNS` (engineering units);
+    ``lambda_GF`` is ISO/TS 6336-22's h/R_a with R_a from :func:`~micropit_hpc.iso6336_22.
+    flank_ra`.
 
     ``w_N_per_m`` is empty for an elliptical contact (its load is a force, not a line load);
     ``roll_angle_deg`` and ``radial_pos_mm`` are empty for a disc rig.
     """
+    from micropit_hpc.film import iso_lambda_gf
+    from micropit_hpc.iso6336_22 import flank_ra
+
+    ra, _ = flank_ra(study.scene)
     lines = [",".join(CONTACT_COLUMNS)]
     for c in study.conditions:
         w = c.load if c.geometry == "line" else math.nan
@@ -35,7 +41,8 @@ def contact_csv(study: ContactStudy) -> str:
             str(c.position), _f(math.degrees(c.roll_angle), ".4f"),
             _f(c.radial_position * 1e3, ".4f"), _f(c.R * 1e3, ".5f"), _f(w, ".1f"),
             _f(c.p0 / 1e9, ".5f"), _f(c.b * 1e6, ".4f"), _f(c.S, ".5f"), _f(c.u_mean, ".5f"),
-            _f(c.hc * 1e6, ".5f"), _f(c.Lambda, ".5f"), c.region)))
+            _f(c.hc * 1e6, ".5f"), _f(c.Lambda, ".5f"), c.region,
+            _f(float(iso_lambda_gf(c.hc, ra, ra)), ".5f"))))
     return "\n".join(lines) + "\n"
 
 
@@ -44,6 +51,8 @@ def path_summary(study: ContactStudy) -> list[str]:
     scene = study.scene
     out = [f"study {scene.name} ({scene.source}): {len(study.conditions)} positions"]
     E_note = ("set by hertz.E_star_GPa" if scene.hertz_E_star is not None else "= E'/2")
+    if scene.lubricant.derived:
+        out.append(scene.lubricant.derived)
     out.append(f"moduli: E' = {study.E_prime / 1e9:.2f} GPa (film), E* = "
                f"{study.E_star / 1e9:.2f} GPa (Hertz, {E_note})")
     if study.mesh is not None:
@@ -70,7 +79,8 @@ def path_summary(study: ContactStudy) -> list[str]:
             c = study.conditions[0]
             out.append(f"Hertz ellipse: load F = {c.load:.4g} N, semi-axes a_x = "
                        f"{c.b * 1e6:.4g} µm (rolling), a_y = {c.a * 1e6:.4g} µm (across)")
-    return out
+    from micropit_hpc.iso6336_22 import method_b
+    return out + method_b(study).lines()
 
 
 def write_text_atomic(path: str | Path, text: str) -> None:

@@ -341,13 +341,14 @@ def run_study(scene: Scene, opts: RunOptions, comm,
               log: Callable[[str], None] = lambda s: None,
               on_block: Callable[[int, int, dict], None] | None = None,
               on_start: Callable[[int, int, Study], None] | None = None,
-              control: StopControl | None = None) -> RunOutcome:
+              control: StopControl | None = None,
+              on_progress: Callable[..., None] | None = None) -> RunOutcome:
     """Run (or resume) every work item of ``scene`` on ``comm`` (collective). ``on_start``
     is called on every rank before the first block with (blocks, blocks already done, study),
-    ``on_block`` after each block with (block, blocks, records). ``control``: the stop
-    control to ask at each block boundary (default: one made here from ``opts``, closed at
-    the end; the CLI passes its own, which keeps the signals handled until the results are
-    written)."""
+    ``on_block`` after each block with (block, blocks, records), ``on_progress`` inside
+    blocks (:meth:`Study.run_block`). ``control``: the stop control to ask at each block
+    boundary (default: one made here from ``opts``, closed at the end; the CLI passes its
+    own, which keeps the signals handled until the results are written)."""
     rank0 = comm.rank == 0
     ckdir = Path(opts.out) / CHECKPOINT_DIR
     latest = None
@@ -395,7 +396,7 @@ def run_study(scene: Scene, opts: RunOptions, comm,
         for k in range(start + 1, study.blocks + 1):
             t0 = time.perf_counter()
             with stage("blocks"):
-                for iid, rec in study.run_block(k).items():
+                for iid, rec in study.run_block(k, on_progress).items():
                     records[iid].append(rec)
             done = k
             if k % opts.checkpoint_every == 0 or k == study.blocks:

@@ -92,6 +92,10 @@ gear 2 is the wheel (body 2). Give either `[gear]` with `[positions]`, or `[disc
         "stresses exceed the S–N line's one-cycle strength that alone pits 11 % of the "
         "flank (docs/validation/findings.md). Default 0: positions as given.", "deg", DEG,
         default=0.0, lo=0, hi=1),
+    Key("material_factor_WW", "material_factor_ww", "float", "Material factor W_W of "
+        "ISO/TS 6336-22 Method B in λ_GFP = 1.4 W_W λ_GFT (1.0 for case-carburised steel, the "
+        "test gears' material; other values from the standard's table for the flanks' "
+        "material and heat treatment).", default=1.0, lo=0, hi=5, lo_open=True),
 ), children=("pinion", "wheel"))
 
 
@@ -119,6 +123,10 @@ def _body_section(path: str, which: str) -> Section:
         Key("nu", "nu", "float", "Poisson's ratio.", default=0.3, lo=-1, hi=0.5, lo_open=True,
             hi_open=True),
         Key("Rq_um", "Rq", "float", "RMS roughness R_q of the surface.", "µm", UM, lo=0, hi=1e4),
+        Key("Ra_um", "Ra", "float", "Arithmetic mean roughness R_a of the flank, for the "
+            "ISO/TS 6336-22 Method B λ_GF of `micropit contact`. Default: √(2/π) R_q, the "
+            "R_a of a Gaussian height distribution (`micropit run` uses the R_a of the "
+            "simulated surfaces).", "µm", UM, default=None, lo=0, hi=1e4),
         Key("hardness_GPa", "hardness", "float", "Hardness H: the pressure cap p_lim = "
             "lubrication.p_lim_hardness × the smaller H of the two bodies, and Archard wear.",
             "GPa", GPA, default=7.0, lo=0, hi=1e3, lo_open=True),
@@ -159,7 +167,9 @@ made periodic, resampled to the window grid and checked against `Rq_um`.
         Key("dataset", "dataset", "str", "HDF5 dataset (or instrument channel) to read.",
             default=None),
         Key("spacing_um", "spacing", "floats", "Grid spacing [Δx, Δy] of a map that does not "
-            "store it (`.npy`, text).", "µm", UM, default=None, lo=0, lo_open=True),
+            "store it (`.npy`, text, instrument files without sizes). A file's own spacing "
+            "(`.npz`, HDF5, `.x3p`, …) is used unless this is given; the run log says which "
+            "was used and what it overrode.", "µm", UM, default=None, lo=0, lo_open=True),
         Key("height_unit", "height_unit", "str", "Unit of the heights stored in the file.",
             default="m", choices=("m", "mm", "um", "nm")),
         Key("detrend", "detrend", "str", "Detrending of a measured map (`quadratic` also "
@@ -169,7 +179,9 @@ made periodic, resampled to the window grid and checked against `Rq_um`.
             "fill with the mean, or interpolate from the neighbours.", default="error",
             choices=("error", "fill_mean", "interpolate")),
         Key("periodise", "periodise", "str", "How a measured map is made to tile without a "
-            "step: `tukey` taper of the edges, `mirror` (even reflection), `none`.",
+            "step: `tukey` taper of the edges (the deviations are then scaled back to the "
+            "map's R_q, which the taper alone lowers by ~14 %), `mirror` (even reflection), "
+            "`none`.",
             default="tukey", choices=("none", "tukey", "mirror")),
         Key("rescale", "rescale", "bool", "Scale a measured map to the body's `Rq_um` (by "
             "default its R_q must agree with `Rq_um` within 5 %).", default=False),
@@ -199,6 +211,29 @@ Lubricant at the contact inlet temperature. Required unless `[film] hc_um` gives
     Key("eyring_stress_MPa", "tau0", "float", "Eyring stress τ0 of the non-Newtonian film, "
         "needed by the `mixed` lubrication model.", "MPa", 1e6, default=None, lo=0, hi=1e4,
         lo_open=True),
+    Key("iso_vg", "iso_vg", "int", "ISO 3448 viscosity grade (ν at 40 °C in mm²/s: 2, 3, 5, "
+        "7, 10, 15, 22, 32, 46, 68, 100, 150, 220, 320, 460, 680, 1000, 1500, 2200, 3200). "
+        "With `nu100_cSt` and `temperature_C` it gives η0 (ASTM D341 Walther) and α (Wooster "
+        "1957) when `eta0_mPas` / `alpha_pv_1_per_GPa` are not given (micropit_hpc/oil.py).",
+        default=None, lo=2, hi=3200),
+    Key("nu40_cSt", "nu40", "float", "Kinematic viscosity at 40 °C (instead of `iso_vg`, "
+        "e.g. from the oil's datasheet).", "mm²/s", 1e-6, default=None, lo=2, hi=1e5),
+    Key("nu100_cSt", "nu100", "float", "Kinematic viscosity at 100 °C (the oil's datasheet), "
+        "needed with `iso_vg` or `nu40_cSt`.", "mm²/s", 1e-6, default=None, lo=1, hi=1e4),
+    Key("temperature_C", "temperature_C", "float", "Oil temperature at the contact inlet, "
+        "for the viscosity by grade.", "°C", 1.0, default=None, lo=-40, hi=250),
+    Key("density_15C_kg_m3", "rho15", "float", "Density at 15 °C, for η0 = ν ρ by grade "
+        "(ρ falls 0.07 %/K).", "kg/m³", 1.0, default=880.0, lo=600, hi=2000),
+    Key("micropitting_load_stage", "load_stage", "int", "Failure load stage SKS of the oil in "
+        "the FVA 54 micropitting test GF-C/8.3/90 (or /60, `micropitting_test_temperature_C`), "
+        "from the oil's datasheet: gives λ_GFT and the ISO/TS 6336-22 Method B permissible "
+        "λ_GFP (micropit_hpc/iso6336_22.py).", default=None, lo=5, hi=10),
+    Key("micropitting_test_temperature_C", "test_temperature_C", "float", "Oil temperature "
+        "of that test (90 for GF-C/8.3/90, 60 for GF-C/8.3/60).", "°C", 1.0, default=90.0,
+        lo=20, hi=150),
+    Key("lambda_GFT", "lambda_gft", "float", "The specific film thickness λ_GFT of the test "
+        "gears at the failure load stage, when known directly (a KISSsoft or datasheet value); "
+        "wins over `micropitting_load_stage`.", default=None, lo=0, hi=100, lo_open=True),
 ))
 
 _WINDOW = Section("window", """
@@ -482,6 +517,7 @@ class Body:
     Rq: float
     hardness: float = 7e9
     surface: SurfaceSpec = field(default_factory=SurfaceSpec)
+    Ra: float | None = None
 
 
 @dataclass(frozen=True)
@@ -491,6 +527,16 @@ class Lubricant:
     beta: float | None
     conductivity: float | None
     tau0: float | None = None
+    iso_vg: int | None = None
+    nu40: float | None = None
+    nu100: float | None = None
+    temperature_C: float | None = None
+    rho15: float = 880.0
+    load_stage: int | None = None
+    test_temperature_C: float = 90.0
+    lambda_gft: float | None = None
+    #: how η0 and α were obtained from the grade (None when both were given)
+    derived: str | None = None
 
 
 @dataclass(frozen=True)
@@ -512,6 +558,7 @@ class GearSpec:
     accuracy_grade: int
     slide_roll_imposed: float | None = None
     pitch_snap: float = 0.0
+    material_factor_ww: float = 1.0
 
 
 @dataclass(frozen=True)
@@ -651,6 +698,8 @@ class Scene:
     roughness_scale: tuple[float, ...] = (1.0,)
     patches: int = 1
     document: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
+    #: plausibility warnings (values in range that look like another unit), :func:`plausibility`
+    warnings: tuple[str, ...] = field(default=(), compare=False)
 
     @property
     def kind(self) -> str:
@@ -694,7 +743,8 @@ def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
                                      f"{name}; at least Rq_um)")
     body1 = _read_body(doc["body1"], _BODY1, _SURFACE1, source)
     body2 = _read_body(doc["body2"], _BODY2, _SURFACE2, source)
-    lub = Lubricant(**read_section(doc.get("lubricant"), _LUBRICANT, source))
+    lub = _lubricant_by_grade(Lubricant(**read_section(doc.get("lubricant"), _LUBRICANT,
+                                                       source)), source)
     film_v = read_section(doc.get("film"), _FILM, source)
     hertz_v = read_section(doc.get("hertz"), _HERTZ, source)
 
@@ -728,7 +778,8 @@ def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
                  gear=gear, positions=positions, disc=disc, window=window,
                  lubrication=lubrication, stress=stress, fatigue=fatigue, wear=wear,
                  life=life, roughness_scale=study["roughness_scale"],
-                 patches=study["patches"], document=dict(doc))
+                 patches=study["patches"], document=dict(doc),
+                 warnings=tuple(plausibility(doc, source)))
 
 
 def _read_body(table: Mapping[str, Any], section: Section, surface: Section,
@@ -747,6 +798,93 @@ def _read_body(table: Mapping[str, Any], section: Section, surface: Section,
         raise SceneError(source, "give two spacings [dx, dy]", key=f"{surface.path}.spacing_um",
                          value=table["surface"]["spacing_um"])
     return Body(**values, surface=spec)
+
+
+#: (key, test on the value as written, what it probably is): in range, but typical of another
+#: unit. Warnings, not errors: an unusual value can be right.
+_PLAUSIBLE = (
+    ("lubricant.eta0_mPas", lambda v: v < 0.3, "a value in Pa·s (gear oils have 2 to 2000 "
+     "mPa·s; water 0.9)"),
+    ("lubricant.eta0_mPas", lambda v: v > 1e5, "a value in µPa·s"),
+    ("lubricant.alpha_pv_1_per_GPa", lambda v: v < 1.0, "a value in 1/Pa or 1/MPa (oils have "
+     "5 to 40 1/GPa)"),
+    ("lubricant.eyring_stress_MPa", lambda v: v > 100, "a value in Pa or kPa (oils: 1 to 20 "
+     "MPa)"),
+    ("lubricant.temperature_C", lambda v: v > 200, "a temperature in K"),
+    ("body1.Rq_um", lambda v: 0 < v < 1e-3, "a value in metres or mm (a ground flank has "
+     "0.1 to 1 µm)"),
+    ("body2.Rq_um", lambda v: 0 < v < 1e-3, "a value in metres or mm (a ground flank has "
+     "0.1 to 1 µm)"),
+    ("body1.Rq_um", lambda v: v > 50, "a value in nm"),
+    ("body2.Rq_um", lambda v: v > 50, "a value in nm"),
+    ("body1.Ra_um", lambda v: 0 < v < 1e-3, "a value in metres or mm"),
+    ("body2.Ra_um", lambda v: 0 < v < 1e-3, "a value in metres or mm"),
+    ("body1.E_GPa", lambda v: v < 1.0, "a value in TPa"),
+    ("body2.E_GPa", lambda v: v < 1.0, "a value in TPa"),
+    ("body1.hardness_GPa", lambda v: v > 30, "a Vickers number HV (HV 700 ≈ 6.9 GPa)"),
+    ("body2.hardness_GPa", lambda v: v > 30, "a Vickers number HV (HV 700 ≈ 6.9 GPa)"),
+    ("gear.module_mm", lambda v: v < 0.1, "a value in metres"),
+    ("gear.facewidth_mm", lambda v: v < 0.1, "a value in metres"),
+    ("film.hc_um", lambda v: v < 1e-3, "a value in metres or mm"),
+    ("disc.p0_GPa", lambda v: v > 20, "a value in MPa"),
+)
+
+
+def plausibility(doc: Mapping[str, Any], source: str) -> list[str]:
+    """Warnings for values that are allowed but look like the wrong unit (e.g. ``eta0_mPas
+    = 0.044``, a value in Pa·s; ``Rq_um = 5e-7``, a value in metres): one line each, naming
+    the file, the key, the value and what it probably is."""
+    out = []
+    for key, test, what in _PLAUSIBLE:
+        v = _lookup(doc, key)
+        if isinstance(v, int | float) and not isinstance(v, bool) and test(v):
+            out.append(f"{source}: {key} = {format_value(v)} looks like {what}; check the "
+                       f"unit in the key's name")
+    return out
+
+
+def _lubricant_by_grade(lub: Lubricant, source: str) -> Lubricant:
+    """η0 and α from the grade (micropit_hpc/oil.py) where the scene does not give them."""
+    from micropit_hpc.oil import ISO_VG, oil_at
+
+    if lub.iso_vg is not None and lub.iso_vg not in ISO_VG:
+        raise SceneError(source, "not an ISO 3448 viscosity grade", key="lubricant.iso_vg",
+                         value=lub.iso_vg, allowed="one of " + ", ".join(map(str, ISO_VG)))
+    if lub.iso_vg is not None and lub.nu40 is not None:
+        raise SceneError(source, "give either lubricant.iso_vg or lubricant.nu40_cSt, not "
+                                 "both", key="lubricant.nu40_cSt", value=lub.nu40 * 1e6)
+    nu40 = lub.nu40 * 1e6 if lub.nu40 is not None else lub.iso_vg
+    if lub.load_stage is not None and lub.lambda_gft is None and lub.nu100 is None:
+        raise SceneError(source, "λ_GFT from the micropitting load stage needs the oil by "
+                                 "grade (iso_vg or nu40_cSt, nu100_cSt, temperature_C) for its "
+                                 "viscosity at the test temperature; or give "
+                                 "lubricant.lambda_GFT", key="lubricant.micropitting_load_stage",
+                         value=lub.load_stage)
+    grade_keys = {"iso_vg": lub.iso_vg, "nu40_cSt": lub.nu40, "nu100_cSt": lub.nu100,
+                  "temperature_C": lub.temperature_C}
+    if all(v is None for v in grade_keys.values()):
+        return lub
+    missing = [k for k, v in grade_keys.items()
+               if v is None and k not in ("iso_vg", "nu40_cSt")]
+    if nu40 is None:
+        missing.insert(0, "iso_vg (or nu40_cSt)")
+    if missing:
+        raise SceneError(source, "the oil by grade needs lubricant.iso_vg (or nu40_cSt), "
+                                 f"nu100_cSt and temperature_C; missing: {', '.join(missing)}")
+    nu100 = lub.nu100 * 1e6
+    if nu100 >= nu40:
+        raise SceneError(source, f"ν at 100 °C must be below ν at 40 °C = {nu40:g} mm²/s",
+                         key="lubricant.nu100_cSt", value=nu100, allowed=f"< {nu40:g}")
+    oil = oil_at(nu40, nu100, lub.temperature_C, lub.rho15)
+    if oil.nu < 2.0:
+        raise SceneError(source, f"the oil's viscosity at {lub.temperature_C:g} °C is "
+                                 f"{oil.nu:.3g} mm²/s, below the 2 mm²/s where ASTM D341's "
+                                 "Walther form holds", key="lubricant.temperature_C",
+                         value=lub.temperature_C, allowed="a temperature where ν ≥ 2 mm²/s")
+    eta_given, alpha_given = lub.eta0 is not None, lub.alpha_pv is not None
+    return replace(lub, eta0=lub.eta0 if eta_given else oil.eta0,
+                   alpha_pv=lub.alpha_pv if alpha_given else oil.alpha,
+                   derived=oil.describe(eta_given, alpha_given))
 
 
 def check_mixed_inputs(scene: Scene, why: str) -> None:
@@ -820,7 +958,8 @@ def _read_gear(table: Mapping[str, Any], source: str) -> tuple[GearSpec, GearMes
                          ) from None
     spec = GearSpec(geometry=geo, torque=g["torque"], speed=g["speed"],
                     load_sharing=g["load_sharing"], accuracy_grade=g["accuracy_grade"],
-                    slide_roll_imposed=g["slide_roll_imposed"], pitch_snap=g["pitch_snap"])
+                    slide_roll_imposed=g["slide_roll_imposed"], pitch_snap=g["pitch_snap"],
+                    material_factor_ww=g["material_factor_ww"])
     return spec, mesh
 
 

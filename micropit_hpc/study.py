@@ -22,6 +22,7 @@ from micropit_hpc.conditions import ContactStudy, contact_study
 from micropit_hpc.cycle import PositionCycle, body_surface, reference_half_width, window_grid
 from micropit_hpc.errors import MicropitError, SceneError, collective
 from micropit_hpc.film import iso_lambda_gf
+from micropit_hpc.iso6336_22 import method_b
 from micropit_hpc.life import (
     BlockRecord,
     LifeParams,
@@ -38,9 +39,9 @@ __all__ = ["MAX_BLOCKS", "SUMMARY_COLUMNS", "ItemRun", "Study", "WorkItem", "blo
            "life_blocks", "summary_rows", "work_items"]
 
 SUMMARY_COLUMNS = ("item", "position", "S", "p0_GPa", "Lambda", "k_lub_s", "body", "cycles",
-                   "Ap_pct", "max_damage", "wear_um", "Rq_um", "slope_dq", "low_cycle_damage_pct",
-                   "low_cycle_pits_pct", "p_lim_area_pct", "deep_damage_ratio",
-                   "pit_depth_max_um", "flags")
+                   "Ap_pct", "max_damage", "wear_um", "Rq_um", "lambda_GF", "S_lambda",
+                   "slope_dq", "low_cycle_damage_pct", "low_cycle_pits_pct", "p_lim_area_pct",
+                   "deep_damage_ratio", "pit_depth_max_um", "flags")
 
 
 @dataclass(frozen=True)
@@ -151,18 +152,23 @@ class ItemRun:
                 log(f"item {item.id}: rainflow counting raises the time steps from "
                     f"{scene.window.steps} to {steps} (slip per step ≤ λ_c/4, λ_c = "
                     f"{lam_c * 1e6:.3g} µm)")
+        self.surfaces = surfaces
         self.cycle = PositionCycle(study, item.position, surfaces=surfaces, steps=steps,
                                    comm=comm)
         self.state: LifeState = initial_state(self.cycle)
 
-    def run_block(self, cycles: float | None = None) -> BlockRecord:
-        return run_block(self.cycle, self.state, self.params, cycles)
+    def run_block(self, cycles: float | None = None,
+                  on_progress: Callable[..., None] | None = None) -> BlockRecord:
+        return run_block(self.cycle, self.state, self.params, cycles, on_progress)
 
 
 def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord], lambda_: float,
+                 lambda_gf: float = math.nan, lambda_gfp: float = math.nan,
                  z_max: float = math.inf, window_ok: bool = True) -> list[tuple]:
     """Rows of summary.csv (:data:`SUMMARY_COLUMNS`) for one item (contact conditions ``c``),
-    one per body and block; ``flags``: the block's flags outside the model's range
+    one per body and block. ``lambda_gf``: the item's ISO/TS 6336-22 λ_GF; ``S_lambda`` =
+    λ_GF/λ_GFP at the item's position (the standard's S_λ is its minimum over the path,
+    :mod:`micropit_hpc.iso6336_22`); ``flags``: the block's flags outside the model's range
     (:func:`~micropit_hpc.regime.block_flags`, joined by ``;``, ``none`` inside it)."""
     rows = []
     for r in records:
@@ -171,9 +177,10 @@ def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord], lambda_: flo
             i = body - 1
             rows.append((item.id, item.position, c.S, c.p0 / 1e9, lambda_, item.k_lub, body,
                          r.cycles, r.Ap[i], r.max_damage[i], r.wear_mean[i] * 1e6,
-                         r.Rq[i] * 1e6, r.slope[i], 100 * r.low_cycle_damage[i],
-                         100 * r.low_cycle_pits[i], 100 * r.plastic_share, r.deep_damage[i],
-                         r.pit_depth_max[i] * 1e6, flags))
+                         r.Rq[i] * 1e6, lambda_gf, lambda_gf / lambda_gfp, r.slope[i],
+                         100 * r.low_cycle_damage[i], 100 * r.low_cycle_pits[i],
+                         100 * r.plastic_share, r.deep_damage[i], r.pit_depth_max[i] * 1e6,
+                         flags))
     return rows
 
 
@@ -191,6 +198,7 @@ class Study:
 
         self.scene, self.comm, self.log = scene, comm, log or (lambda s: None)
         self.base = contact_study(scene)
+        self.method_b = method_b(self.base)      # ISO/TS 6336-22 Method B beside A_p
         n_pos = len(self.base.conditions)
         if positions is not None:
             bad = [p for p in positions if not 1 <= p <= n_pos]
@@ -234,19 +242,30 @@ class Study:
         """Build this group's items (surfaces, solvers, fresh state). Collective."""
         for it in self.mine:
             self.runs[it.id] = ItemRun(self.scene, it, self.base, self.log, self.group.comm)
+        if self.runs:   # how each measured map was read (spacing from the file or the scene)
+            first = next(iter(self.runs.values()))
+            for i, (body, top) in enumerate(zip((self.scene.body1, self.scene.body2),
+                                                first.surfaces, strict=True), start=1):
+                if body.surface.kind == "file":
+                    self.log(f"body{i}.surface: {top.provenance}")
 
     def block_cycles(self, k: int) -> float:
         """Cycles of block k (1-based): ΔN, the last block shortened so that the blocks add up
         to exactly life.cycles (:func:`life_blocks`)."""
         return block_cycles(self.scene, k)
 
-    def run_block(self, k: int) -> dict[int, BlockRecord]:
+    def run_block(self, k: int, on_progress: Callable[..., None] | None = None
+                  ) -> dict[int, BlockRecord]:
         """Block k of every item of this group; returns {item id: record} on every rank of
-        the world, gathered in item order."""
+        the world, gathered in item order. ``on_progress(k, item, i, n, cycles_done,
+        block_cycles, sub_block, step, steps)``: called on every rank of this group after
+        every time step (item: the :class:`WorkItem`, i-th of this group's n items)."""
         local = {}
-        for it in self.mine:
+        for i, it in enumerate(self.mine):
+            hook = None if on_progress is None else (
+                lambda *a, it=it, i=i: on_progress(k, it, i, len(self.mine), *a))
             try:
-                rec = self.runs[it.id].run_block(self.block_cycles(k))
+                rec = self.runs[it.id].run_block(self.block_cycles(k), hook)
             except MicropitError as e:   # say which item failed: the scene may hold dozens
                 err = MicropitError(
                     f"{self.scene.source}: item {it.id} (position {it.position}, k_lub "

@@ -1,7 +1,9 @@
 """A flank study at a glance, like the paper's Fig. 8: A_p of the driver (body 1) and the driven
 gear (body 2) at the end of the life against the roll angle of the driver, one line per wear
-coefficient, with the maximum Hertz pressure p0, the slide-roll ratio S, Λ and the ISO/TS
-6336-22 Method B style λ_GF on a second axis.
+coefficient; below, the maximum Hertz pressure p0 on its own axis, and the ratios S, Λ and the
+ISO/TS 6336-22 Method B λ_GF (along the whole path, with λ_GF,min and the permissible λ_GFP
+when the oil's rating is given) on another. Every panel marks the points A–E of the path of
+contact and shades the single-pair zone B–D.
 Where a position has several roughness patches (or scales), the mark is their mean and the bar
 their range. Also writes the table of the plot (flank.csv) and prints it.
 
@@ -25,12 +27,31 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 
+def path_data(run: Path) -> dict:
+    """The path of contact and Method B of a run: roll angles of A–E [deg] (empty for older
+    results), λ_GF along the path, λ_GF,min, λ_GFP and S_λ (NaN when not known)."""
+    out = {"points": {}, "roll_deg": np.array([]), "lambda_GF": np.array([]),
+           "lambda_GF_min": math.nan, "lambda_GFP": math.nan, "S_lambda": math.nan}
+    with h5py.File(run / "results.h5", "r") as f:
+        if "path" in f:
+            out["points"] = {k: math.degrees(f["path"].attrs[f"{k}_roll_angle"])
+                             for k in "ABCDE"}
+        if "iso6336_22" in f:
+            iso = f["iso6336_22"]
+            out["roll_deg"] = np.degrees(iso["roll_angle"][()])
+            out["lambda_GF"] = iso["lambda_GF"][()]
+            for k in ("lambda_GF_min", "lambda_GFP", "S_lambda"):
+                out[k] = float(iso.attrs[k])
+    return out
+
+
 def flank_table(run: Path) -> list[dict]:
-    """One row per (position, k_lub): roll angle, S, p0, Λ, λ_GF (mean over patches), the
-    pair zone, A_p of each body (mean, min, max over patches and roughness scales) at the
-    last block."""
+    """One row per (position, k_lub): roll angle, S, p0, Λ, λ_GF (mean over patches), λ_GFP
+    and λ_GF/λ_GFP, the pair zone, A_p of each body (mean, min, max over patches and
+    roughness scales) at the last block."""
     with h5py.File(run / "results.h5", "r") as f:
         it = {k: f[f"items/{k}"][()] for k in f["items"]}
+        gfp = float(f["iso6336_22"].attrs["lambda_GFP"]) if "iso6336_22" in f else math.nan
         if "roll_angle" not in it or np.all(np.isnan(it["roll_angle"])):
             raise SystemExit(f"{run}/results.h5 is not a gear flank study (no roll angles); "
                              "use postprocess/plot_life.py")
@@ -49,6 +70,9 @@ def flank_table(run: Path) -> list[dict]:
             "Lambda": float(it["Lambda"][k0]),
             "lambda_GF": float(np.mean([it["lambda_GF"][k] for k in ks]))
             if "lambda_GF" in it else math.nan,
+            "lambda_GFP": gfp,
+            "S_lambda": float(np.mean([it["lambda_GF"][k] for k in ks])) / gfp
+            if "lambda_GF" in it else math.nan,
             "region": ("single" if it["single_pair"][k0] else "double")
             if "single_pair" in it else "",
             "k_lub_s": klub, "samples": len(ks),
@@ -59,36 +83,89 @@ def flank_table(run: Path) -> list[dict]:
     return rows
 
 
-def plot(rows: list[dict], out: Path, title: str) -> None:
-    fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 7.5), sharex=True)
+def mark_path(ax, points: dict, labels: bool = False) -> None:
+    """A–E as thin vertical lines (named along the top when ``labels``) and the single-pair
+    zone B–D shaded."""
+    if not points:
+        return
+    ax.axvspan(points["B"], points["D"], color="0.9", zorder=0,
+               label="single-pair zone B–D" if labels else None)
+    for k, x in points.items():
+        ax.axvline(x, color="0.55", lw=0.7, zorder=1)
+        if labels:
+            ax.annotate(k, (x, 1.0), xycoords=("data", "axes fraction"), xytext=(0, 2),
+                        textcoords="offset points", ha="center", va="bottom", fontsize=9,
+                        fontweight="bold")
+
+
+def plot(rows: list[dict], out: Path, title: str, path: dict | None = None) -> None:
+    path = path or {"points": {}, "roll_deg": np.array([]), "lambda_GF": np.array([]),
+                    "lambda_GF_min": math.nan, "lambda_GFP": math.nan, "S_lambda": math.nan}
+    fig, axes = plt.subplots(4, 1, figsize=(8.5, 11.5), sharex=True,
+                             gridspec_kw={"height_ratios": [1.3, 1.3, 0.8, 1.2]})
+    a1, a2, ap0, arat = axes
+    pts = path["points"]
     by_k: dict[float, list[dict]] = defaultdict(list)
     for r in rows:
         by_k[r["k_lub_s"]].append(r)
     for body, ax in ((1, a1), (2, a2)):
+        mark_path(ax, pts, labels=body == 1)
         for klub, rs in sorted(by_k.items()):
             x = [r["roll_angle_deg"] for r in rs]
             y = np.array([r[f"Ap{body}_pct"] for r in rs])
             lo = y - np.array([r[f"Ap{body}_min"] for r in rs])
             hi = np.array([r[f"Ap{body}_max"] for r in rs]) - y
-            ax.errorbar(x, y, yerr=[lo, hi], marker="o", capsize=3,
+            ax.errorbar(x, y, yerr=[lo, hi], marker="o", capsize=3, zorder=3,
                         label=f"k_lub = {klub:g} s")
-        ax.set_ylabel(f"A_p body {body} [%]  ({'driver' if body == 1 else 'driven'})")
-        ax.set_ylim(bottom=0)
+        ax.set_ylabel(f"A_p body {body} [%]\n({'driver' if body == 1 else 'driven'})")
+        top = max((r[f"Ap{body}_max"] for r in rows), default=0.0)
+        ax.set_ylim(0, 1.12 * top if top > 0 else 1.0)     # room above the highest mark
         ax.grid(alpha=0.3)
-        tw = ax.twinx()
-        xs = [r["roll_angle_deg"] for r in rows]
-        tw.plot(xs, [r["p0_GPa"] for r in rows], "k--", lw=1, label="p0 [GPa]")
-        tw.plot(xs, [r["S"] for r in rows], "k:", lw=1, label="S")
-        tw.plot(xs, [r["Lambda"] for r in rows], "c-.", lw=1, label="Λ")
-        tw.plot(xs, [r["lambda_GF"] for r in rows], "m-.", lw=1, label="λ_GF (ISO/TS 6336-22 B)")
-        tw.set_ylabel("p0 [GPa], S, Λ, λ_GF")
-        if body == 1:
-            h1, l1 = ax.get_legend_handles_labels()
-            h2, l2 = tw.get_legend_handles_labels()
-            fig.legend(h1 + h2, l1 + l2, fontsize=8, loc="lower center", ncol=4)
-    a2.set_xlabel("roll angle of the driver [deg]")
-    a1.set_title(title)
-    fig.tight_layout(rect=(0, 0.05, 1, 1))
+    a1.legend(fontsize=8, loc="best")
+    xs = [r["roll_angle_deg"] for r in rows]
+    mark_path(ap0, pts)
+    ap0.plot(xs, [r["p0_GPa"] for r in rows], "ko-", lw=1, ms=4, label="p0")
+    ap0.set_ylabel("p0 [GPa]")
+    ap0.set_ylim(bottom=0)
+    ap0.grid(alpha=0.3)
+    mark_path(arat, pts)
+    arat.axhline(0.0, color="k", lw=0.6)
+    arat.plot(xs, [r["S"] for r in rows], "s:", color="tab:gray", ms=4, label="S (slide-roll)")
+    arat.plot(xs, [r["Lambda"] for r in rows], "^-.", color="tab:cyan", ms=4,
+              label="Λ = h_c/R_q")
+    if path["roll_deg"].size:
+        ok = np.isfinite(path["lambda_GF"])
+        arat.plot(path["roll_deg"][ok], path["lambda_GF"][ok], "-", color="tab:purple", lw=1.2,
+                  label="λ_GF along the path (ISO/TS 6336-22 B)")
+    arat.plot(xs, [r["lambda_GF"] for r in rows], "o", color="tab:purple", ms=4,
+              label="λ_GF of the items (their surfaces' R_a)")
+    if math.isfinite(path["lambda_GF_min"]):
+        k = int(np.nanargmin(np.where(np.isfinite(path["lambda_GF"]), path["lambda_GF"],
+                                      np.inf)))
+        arat.plot(path["roll_deg"][k], path["lambda_GF_min"], "v", color="tab:purple", ms=8,
+                  label=f"λ_GF,min = {path['lambda_GF_min']:.3g}")
+    if math.isfinite(path["lambda_GFP"]):
+        arat.axhline(path["lambda_GFP"], color="tab:red", ls="--", lw=1.2,
+                     label=f"λ_GFP = {path['lambda_GFP']:.3g} (S_λ = "
+                           f"{path['S_lambda']:.3g})")
+    finite = [v for r in rows for v in (r["S"], r["Lambda"], r["lambda_GF"])
+              if math.isfinite(v)]
+    finite += [v for v in (path["lambda_GFP"], path["lambda_GF_min"]) if math.isfinite(v)]
+    if finite:                                   # the film is infinite where the load is zero
+        top = 1.15 * max(np.percentile(np.abs(finite), 95), path["lambda_GFP"]
+                         if math.isfinite(path["lambda_GFP"]) else 0)
+        arat.set_ylim(min(-0.05, 1.15 * min(finite)), top)
+    arat.set_ylabel("S, Λ, λ_GF [-]")
+    arat.grid(alpha=0.3)
+    arat.set_xlabel("roll angle of the driver [deg]")
+    arat.legend(fontsize=7, loc="upper center", bbox_to_anchor=(0.5, -0.28), ncol=3,
+                frameon=False)
+    a1.set_title(title, pad=16)
+    if pts:
+        fig.text(0.5, 0.005, "A start of active profile · B lowest / D highest point of single "
+                 "contact · C pitch point · E tip of the driver", ha="center", fontsize=7)
+    fig.tight_layout(rect=(0, 0.015, 1, 1))
+    fig.subplots_adjust(bottom=0.11)
     fig.savefig(out, dpi=120)
     plt.close(fig)
 
@@ -105,7 +182,8 @@ def main() -> int:
     rows = flank_table(a.run)
     out = a.out or a.run / "flank.png"
     cycles = max(r["cycles_M"] for r in rows)
-    plot(rows, out, f"{a.run.name}: micropitted area after {cycles:g} M cycles")
+    plot(rows, out, f"{a.run.name}: micropitted area after {cycles:g} M cycles",
+         path_data(a.run))
     table = a.run / "flank.csv"
     with open(table, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))

@@ -55,6 +55,12 @@ else
     pth="$site/micropit-petsc4py.pth"
     want="$petsc_dir/lib/python3/dist-packages"
     [[ -f "$pth" && "$(cat "$pth")" == "$want" ]] || { echo "$want" > "$pth"; say "petsc4py path: $want"; }
+    # Trap 1/2 for every later pip call in the venv, typed by hand too: the venv's own pip
+    # configuration applies constraints.txt, so no install can replace Debian's NumPy, SciPy,
+    # h5py (mpio) or mpi4py (docs/install.md, "Measured surfaces").
+    conf=".venv/pip.conf"
+    want_conf=$(printf '[install]\nconstraint = %s/constraints.txt\n' "$root")
+    [[ -f "$conf" && "$(cat "$conf")" == "$want_conf" ]] || { printf '%s\n' "$want_conf" > "$conf"; say "pip in .venv now applies constraints.txt ($conf)"; }
     stamp="$root/.venv/.micropit-setup-stamp"
 fi
 

@@ -32,7 +32,7 @@ def test_contact_prints_the_path_summary_and_exactly_the_csv_columns(tmp_path):
     rows = list(csv.DictReader(io.StringIO(table)))
     assert tuple(rows[0]) == CONTACT_COLUMNS == (
         "position", "roll_angle_deg", "radial_pos_mm", "R_mm", "w_N_per_m", "p0_GPa", "b_um",
-        "S", "u_mean_m_s", "hc_um", "Lambda", "region")
+        "S", "u_mean_m_s", "hc_um", "Lambda", "region", "lambda_GF")
     assert len(rows) == 11 and {r["region"] for r in rows} == {"single", "double"}
     assert (tmp_path / "c.csv").read_text() == table + "\n"  # the file holds only the CSV
 

@@ -112,3 +112,72 @@ def test_null_progress_has_the_same_api():
     assert public <= {n for n in dir(NullProgress) if not n.startswith("_")}
     with NullProgress(10, "blocks") as p:
         p.update(3, "note")
+
+
+# ---- inside blocks (issue 20) -------------------------------------------------------------
+def test_block_fraction_counts_items_and_cycles_inside_the_block():
+    from micropit_hpc.progress import block_fraction
+
+    assert block_fraction(1, 0, 4, 0.0, 1e6) == 0.0
+    assert block_fraction(1, 1, 4, 0.5e6, 1e6) == pytest.approx(0.375)   # (1 + 0.5)/4
+    assert block_fraction(3, 3, 4, 1e6, 1e6) == pytest.approx(3.0)
+    assert block_fraction(2, 0, 1, 2e6, 1e6) == pytest.approx(2.0)      # clipped to the block
+
+
+def test_fractional_progress_shows_two_decimals_and_an_eta():
+    p, clock, out = make(total=3)
+    p.update(0, "starting")
+    clock.t = 30.0
+    p.update(0.25, "block 1: item 0")
+    lines = out.getvalue().splitlines()
+    assert lines[0].startswith("[progress] 0/3 blocks (0%)") and "ETA ?" in lines[0]
+    # 0.25 of a block in 30 s ⇒ 2.75 blocks left take 330 s
+    assert lines[1] == ("[progress] 0.25/3 blocks (8%) elapsed 0:00:30 ETA 0:05:30 — "
+                        "block 1: item 0")
+
+
+def test_reports_inside_a_unit_never_hold_back_the_first_units_line():
+    """The start line and the reports inside block 1 do not delay the line of block 1 done (a
+    job script waits for it), though they are rate-limited among themselves."""
+    p, clock, out = make(total=3)
+    p.update(0, "starting", milestone=False)
+    clock.t = 1.0
+    p.update(0.5, "inside", milestone=False)          # within 10 s of the start: held back
+    clock.t = 2.0
+    p.update(1, "block 1")                             # the first milestone: written
+    clock.t = 3.0
+    p.update(2, "block 2")                             # within 10 s of block 1: held back
+    lines = out.getvalue().splitlines()
+    assert [ln.split(" — ")[1] for ln in lines] == ["starting", "block 1"]
+
+
+def test_a_run_reports_inside_its_blocks_and_is_silent_with_quiet(tmp_path, capsys, monkeypatch):
+    """`micropit run` writes a first line at once, then lines inside the block (item,
+    sub-block, time step) with an ETA; --quiet writes none of them (warnings only)."""
+    from test_life import tiny_doc
+    from test_run import _write_scene
+
+    import micropit_hpc.progress as progress
+    from micropit_hpc.cli import main
+
+    monkeypatch.setattr(progress, "LOG_INTERVAL_S", 0.0)      # every report, not every 10 s
+    doc = tiny_doc(slide_roll=(0.3, 0.2))
+    doc["life"] = {"cycles_M": 1.0, "block_M": 1.0, "max_splits": 2}
+    doc["window"] = {"n": 16, "steps": 3}
+    doc["stress"] = {"layers": 3}
+    scene = _write_scene(tmp_path / "tiny.toml", doc)
+    assert main(["run", str(scene), "--out", str(tmp_path / "a")]) == 0
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("[progress]")]
+    assert err[0].startswith("[progress] 0/1 blocks") and err[0].endswith("starting")
+    inside = [ln for ln in err if "sub-block" in ln]
+    for item, pos in ((0, 1), (1, 2)):
+        for step in (1, 2, 3):
+            assert any(f"item {item} (position {pos}), {item + 1} of 2 on this rank, "
+                       f"sub-block 1, 0 of 1 M cycles, step {step}/3" in ln for ln in inside)
+    assert any(ln.startswith("[progress] 0.50/1 blocks") and "ETA 0:" in ln for ln in inside)
+    assert err[-1].startswith("[progress] 1/1 blocks (100%)")
+    assert main(["run", str(scene), "--out", str(tmp_path / "b"), "--quiet"]) == 0
+    quiet = capsys.readouterr().err.splitlines()
+    assert any(ln.startswith("# warning: block 1") for ln in quiet)    # warnings stay
+    assert not [ln for ln in quiet if ln.startswith("[progress]")
+                or (ln.startswith("# ") and not ln.startswith("# warning:"))]

@@ -163,7 +163,9 @@ def test_unknown_extension_without_surfacetopography(tmp_path, monkeypatch):
     p.write_bytes(b"PK\x03\x04")
     text = msg_of(p)
     assert "unknown extension '.x3p'" in text and ".npy, .npz, .txt, .csv, .dat, .h5" in text
-    assert "pip install SurfaceTopography" in text and ".sdf" in text
+    # the advice installs it without replacing NumPy or h5py (issue 20)
+    assert "scripts/install-surfaces.sh" in text and "docs/install.md" in text and ".sdf" in text
+    assert "a plain `pip install` would replace NumPy" in text
 
 
 # ---- NaN policies ---------------------------------------------------------------------------
@@ -223,22 +225,22 @@ class _FakeTopography:
 
 
 def fake_st(heights, sizes=(7.0, 10.0), unit="µm", channels=("Height", "Intensity")):
-    """A stand-in for SurfaceTopography: read_topography(fn, channel_index=...) and
-    open_topography(fn) as a context manager with .channels (each with .name)."""
+    """A stand-in for SurfaceTopography 1.27 (the API checked against the real package):
+    open_topography(fn) as a context manager with .channels (each with .name, .nb_grid_pts,
+    .physical_sizes, .unit) and .topography(channel_index=, physical_sizes=, unit=), which
+    refuses a file without sizes unless physical_sizes is given."""
     mod = types.ModuleType("SurfaceTopography")
     mod.calls = []
-
-    def read_topography(fn, channel_index=None):
-        mod.calls.append((fn, channel_index))
-        if fn.endswith(".broken"):
-            raise RuntimeError("CannotDetectFileFormat: tried 40 readers\nmore lines")
-        data = heights if not channel_index else heights * 0 + channel_index
-        return _FakeTopography(data, sizes, unit)
-
-    infos = [types.SimpleNamespace(name=n) for n in channels]
+    infos = [types.SimpleNamespace(name=n, nb_grid_pts=np.shape(heights), physical_sizes=sizes,
+                                   unit=unit) for n in channels]
 
     class Reader:
         channels = infos
+
+        def __init__(self, fn):
+            if fn.endswith(".broken"):
+                raise RuntimeError("CannotDetectFileFormat: tried 40 readers\nmore lines")
+            self.fn = fn
 
         def __enter__(self):
             return self
@@ -246,8 +248,15 @@ def fake_st(heights, sizes=(7.0, 10.0), unit="µm", channels=("Height", "Intensi
         def __exit__(self, *exc):
             return False
 
-    mod.read_topography = read_topography
-    mod.open_topography = lambda fn: Reader()
+        def topography(self, channel_index=None, physical_sizes=None, unit=None):
+            mod.calls.append((self.fn, channel_index, physical_sizes, unit))
+            if sizes is None and physical_sizes is None:
+                raise ValueError("`physical_sizes` could not be extracted from file, you must "
+                                 "provide it.")
+            data = heights if not channel_index else heights + channel_index
+            return _FakeTopography(data, physical_sizes or sizes, unit or infos[0].unit)
+
+    mod.open_topography = Reader
     return mod
 
 
@@ -264,7 +273,7 @@ def test_surfacetopography_adapter_converts_units(tmp_path, monkeypatch):
     t = read_topography(p)
     assert np.array_equal(t.heights, H * 1e-6)
     assert (t.dx, t.dy) == pytest.approx((1e-6, 2e-6), rel=1e-15)  # 7 µm / 7, 10 µm / 5
-    assert mod.calls == [(str(p), None)]
+    assert mod.calls == [(str(p), 0, None, None)]      # the file's own sizes and unit
     for unit, factor in (("nm", 1e-9), ("mm", 1e-3), ("m", 1.0), ("Å", 1e-10)):
         monkeypatch.setitem(sys.modules, "SurfaceTopography", fake_st(H, unit=unit))
         t = read_topography(p)
@@ -279,17 +288,31 @@ def test_surfacetopography_channels_and_errors(tmp_path, monkeypatch):
     mod = fake_st(H)
     monkeypatch.setitem(sys.modules, "SurfaceTopography", mod)
     p = instrument_file(tmp_path, "scan.sdf")
-    assert np.all(read_topography(p, dataset="Intensity").heights == 1e-6)
-    assert np.all(read_topography(p, dataset=1).heights == 1e-6)
+    np.testing.assert_allclose(read_topography(p, dataset="Intensity").heights, (H + 1) * 1e-6,
+                               rtol=1e-14)
+    np.testing.assert_allclose(read_topography(p, dataset=1).heights, (H + 1) * 1e-6,
+                               rtol=1e-14)
     assert [c[1] for c in mod.calls] == [1, 1]
+    assert "channel 5 not found (channels 0 to 1: Height, Intensity)" in msg_of(p, dataset=5)
     assert "channel 'Phase' not found (channels: Height, Intensity)" in msg_of(p, dataset="Phase")
     text = msg_of(instrument_file(tmp_path, "scan.broken"))
     assert "SurfaceTopography cannot read it (RuntimeError: CannotDetectFileFormat" in text
     monkeypatch.setitem(sys.modules, "SurfaceTopography", fake_st(H, unit="furlong"))
     assert "unit = 'furlong': unknown unit" in msg_of(p)
-    monkeypatch.setitem(sys.modules, "SurfaceTopography", fake_st(H, sizes=None))
-    assert "gives no grid spacing" in msg_of(p)
-    assert read_topography(p, spacing=(UM, UM)).dx == UM
+    # a format without sizes: spacing_um is passed on as the physical sizes (issue 20: it was
+    # not, and the package refused the file)
+    mod = fake_st(H, sizes=None)
+    monkeypatch.setitem(sys.modules, "SurfaceTopography", mod)
+    assert "the file stores no physical size: give surface.spacing_um" in msg_of(p)
+    t = read_topography(p, spacing=(UM, 2 * UM))
+    assert (t.dx, t.dy) == pytest.approx((UM, 2 * UM), rel=1e-14)
+    assert mod.calls[-1] == (str(p), 0, pytest.approx((7.0, 10.0)), None)   # in the file's µm
+    assert "from argument (the file stores none)" in t.provenance
+    mod = fake_st(H, sizes=None, unit=None)       # no unit either: height_unit names it
+    monkeypatch.setitem(sys.modules, "SurfaceTopography", mod)
+    t = read_topography(p, spacing=(UM, UM), height_unit="nm")
+    assert mod.calls[-1] == (str(p), 0, pytest.approx((7000.0, 5000.0)), "nm")
+    assert t.dx == pytest.approx(UM, rel=1e-14) and np.array_equal(t.heights, H * 1e-9)
     monkeypatch.setitem(sys.modules, "SurfaceTopography", fake_st(np.zeros(9), sizes=(1.0,)))
     assert "a line scan of (9,) points" in msg_of(p)
 
@@ -303,3 +326,38 @@ def test_surfacetopography_masked_points_follow_the_nan_policy(tmp_path, monkeyp
     t = read_topography(p, nan_policy="fill_mean")
     valid = ~masked.mask
     assert t.heights[3, 3] == pytest.approx(np.mean(H[valid]) * 1e-6, rel=1e-14)
+
+
+# ---- maps that are not height maps (issue 20) ------------------------------------------------
+@pytest.mark.parametrize("data,words", [
+    ((H + 1j * H) * UM, "heights of dtype complex128: complex numbers, not heights"),
+    (H > 0, "heights of dtype bool: true/false values, a mask rather than a height map"),
+    (np.full((7, 5), 3e-7), "all 35 heights are 3e-07 m: a constant map has no roughness"),
+    (H * 1e300, "heights span 1.32e+300 m (in m): no measured roughness map spans more than "
+                "1 km; check height_unit"),
+    (np.where(H > 0, 1e308, -1e308), "heights span inf m"),
+])
+def test_maps_that_are_not_height_maps_name_the_fault(tmp_path, data, words):
+    p = tmp_path / "bad.npy"
+    np.save(p, data)
+    text = msg_of(p, spacing=(UM, UM))
+    assert words in text and "smaller than the simulation window" not in text
+
+
+def test_the_scene_run_names_a_map_fault_in_one_line(tmp_path, capsys):
+    """Through `micropit run`: the error names the file, the body's surface key and the
+    fault (not the window size)."""
+    from test_life import tiny_doc
+    from test_run import _write_scene
+
+    from micropit_hpc.cli import main
+
+    np.save(tmp_path / "c.npy", (H + 1j * H) * UM)
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["body1"]["surface"] = {"kind": "file", "file": "c.npy", "spacing_um": [40.0, 40.0],
+                               "rescale": True}
+    scene = _write_scene(tmp_path / "s.toml", doc)
+    assert main(["run", str(scene), "--out", str(tmp_path / "o")]) == 2
+    err = [ln for ln in capsys.readouterr().err.splitlines() if not ln.startswith("# ")]
+    assert len(err) == 1 and err[0].startswith("micropit: error: ")
+    assert "body1.surface" in err[0] and "complex numbers" in err[0]

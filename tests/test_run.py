@@ -68,6 +68,9 @@ def test_run_writes_summary_and_results(tmp_path, capsys):
         # for these Gaussian surfaces (R_q 0.16 and 0.21 µm) R_a ≈ √(2/π) R_q
         gf, hc = f["items/lambda_GF"][()], f["items/hc"][()]
         assert gf[1] == pytest.approx(2 * gf[0], rel=1e-12)
+        for r in rows:       # summary.csv: the item's λ_GF; S_λ needs the oil's rating
+            assert float(r["lambda_GF"]) == pytest.approx(gf[int(r["item"])], rel=1e-5)
+            assert math.isnan(float(r["S_lambda"]))
         ra = math.sqrt(2 / math.pi) * 0.5 * (0.16e-6 + 0.21e-6)
         assert gf[0] == pytest.approx(hc[0] / ra, rel=0.1)
         assert hc[0] > 0 and f["items/single_pair"][0] == 1
@@ -164,6 +167,9 @@ def test_quick_scene_runs_and_the_flank_plot_reads_it(tmp_path):
     pitch = rows[1]                                   # the middle of A-E: the pitch point
     assert abs(float(pitch["S"])) < 1e-9
     assert float(pitch["Ap1_pct"]) == 0.0 and float(pitch["Ap2_pct"]) == 0.0
+    for r in rows:     # Method B beside A_p: no oil rating in quick.toml, so no λ_GFP
+        assert float(r["lambda_GF"]) > 0 and math.isnan(float(r["lambda_GFP"]))
+        assert math.isnan(float(r["S_lambda"]))
     assert (out / "flank.png").stat().st_size > 10_000
     run = subprocess.run([sys.executable, str(ROOT / "postprocess" / "plot_life.py"), str(out)],
                          capture_output=True, text=True, timeout=120)

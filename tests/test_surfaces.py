@@ -132,6 +132,27 @@ def test_tukey_periodisation_removes_the_step_and_keeps_the_centre():
         t.periodised("hann")
 
 
+def test_tukey_periodisation_can_keep_the_rq():
+    """keep_rq: the taper still removes the step, and R_q is what it was (issue 20: the plain
+    taper lowered R_q by ~14 % and the map was then refused against its stated R_q)."""
+    rng = np.random.default_rng(3)
+    t = Topography(rng.normal(0.0, 0.5e-6, (64, 48)), UM, UM)
+    plain = t.periodised("tukey", 0.1)
+    assert 0.8 < plain.rq / t.rq < 0.9                           # the drop the issue saw
+    kept = t.periodised("tukey", 0.1, keep_rq=True)
+    assert kept.rq == pytest.approx(t.rq, rel=1e-12)
+    np.testing.assert_allclose(kept.heights[0], t.mean, rtol=1e-14)   # still tiles
+    c = t.rq / plain.rq
+    np.testing.assert_allclose(kept.heights - t.mean, c * (plain.heights - t.mean), rtol=1e-12,
+                               atol=1e-22)
+    assert f"R_q kept at {t.rq:.6g} m (deviations × {c:.4g})" in kept.provenance
+
+
+def test_rq_of_huge_heights_does_not_overflow():
+    h = np.random.default_rng(4).normal(0.0, 1.0, (16, 16))
+    assert Topography(h * 1e300, UM, UM).rq == pytest.approx(h.std() * 1e300, rel=1e-12)
+
+
 def test_mirror_periodisation_doubles_the_patch_without_a_step():
     h = np.random.default_rng(0).standard_normal((6, 5)) * UM
     p = Topography(h, UM, 2 * UM).periodised("mirror")
@@ -177,8 +198,10 @@ def test_resampling_to_a_coarser_grid_removes_what_it_cannot_represent():
 
 def test_resampling_to_a_window_larger_than_the_map_is_refused():
     t = Topography(np.zeros((10, 10)), UM, UM)
-    with pytest.raises(TopographyError, match=r"1e-05 m x 1e-05 m is smaller than the "
-                                              r"simulation window 1\.2e-05 m x 1e-05 m"):
+    # sizes in µm, naming the keys that set the window (issue 20)
+    with pytest.raises(TopographyError, match=r"covers 10 µm x 10 µm, smaller than the "
+                                              r"simulation window 12 µm x 10 µm it must cover: "
+                                              r"shorten window\.length_x_um"):
         t.resampled(Grid(12, 10, 12 * UM, 10 * UM))
 
 

@@ -2,7 +2,11 @@
 
 Both are written by world rank 0 as ``*.tmp``, flushed, fsynced and renamed, so a crash never
 leaves a half-written file under the final name. Engineering units in the CSV (µm, GPa, %); SI
-in the HDF5 file, with units in each dataset's ``unit`` attribute.
+in the HDF5 file, with the unit of every dataset in its ``unit`` attribute ("1" for a pure
+number), the window's coordinates in ``grid/x``, ``grid/y``, ``grid/z``, and an XDMF file
+(``results.xdmf``, :func:`write_xdmf`) beside it so that ParaView and VisIt open the maps.
+Provenance: the code's commit, the library versions and the SHA-256 of the input files
+(:mod:`micropit_hpc.io.provenance`).
 """
 
 from __future__ import annotations
@@ -19,7 +23,16 @@ from micropit_hpc.io.hdf5 import atomic_h5, h5py_module, scene_json
 from micropit_hpc.regime import block_flags
 from micropit_hpc.report import write_text_atomic
 
-__all__ = ["write_results", "write_summary"]
+__all__ = ["MAP_UNITS", "write_results", "write_summary", "write_xdmf"]
+
+#: Unit of each final map (``maps/item_NNNNN/bodyB/<name>``).
+MAP_UNITS = {"heights": "m", "damage": "1", "damage_risk": "1", "pitted": "1", "wear": "m",
+             "pit_depth": "m"}
+#: Unit of each item column (``items/<name>``).
+ITEM_UNITS = {"id": "1", "position": "1", "k_lub": "s", "roughness_scale": "1", "patch": "1",
+              "S": "1", "p0": "Pa", "Lambda": "1", "lambda_GF": "1", "hc": "m",
+              "single_pair": "1", "roll_angle": "rad", "radial_position": "m",
+              "S_lambda": "1"}
 
 
 def _cell(v) -> str:
@@ -42,12 +55,21 @@ def write_summary(path: str | Path, columns: Sequence[str], rows: Sequence[tuple
 
 def write_results(path: str | Path, study, records: Mapping[int, list],
                   maps: Mapping[int, Mapping[str, np.ndarray]], meta: Mapping[str, object]) -> Path:
-    """results.h5: the items, their block histories and their final maps (docs/outputs.md)."""
+    """results.h5: the items, their block histories and their final maps (docs/outputs.md),
+    and results.xdmf beside it (:func:`write_xdmf`)."""
+    import json
+
+    from micropit_hpc.io.provenance import input_hashes, library_versions
+
     path = Path(path)
     try:
         with atomic_h5(path) as f:
             f.attrs["code_version"] = __version__
             f.attrs["source_commit"] = source_commit()
+            f.attrs["library_versions"] = json.dumps(library_versions(), sort_keys=True)
+            f.attrs["input_sha256"] = json.dumps(input_hashes(study.scene), sort_keys=True)
+            if study.scene.lubricant.derived:
+                f.attrs["lubricant_derived"] = study.scene.lubricant.derived
             f.attrs["scene"] = scene_json(study.scene.document)
             f.attrs["scene_file"] = str(study.scene.source)
             f.attrs["created_utc"] = _dt.datetime.now(_dt.UTC).isoformat()
@@ -58,23 +80,39 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
             tab["id"] = np.array([i.id for i in items])
             tab["position"] = np.array([i.position for i in items])
             tab["k_lub"] = np.array([i.k_lub for i in items])
-            tab["k_lub"].attrs["unit"] = "s"
             tab["roughness_scale"] = np.array([i.scale for i in items])
             tab["patch"] = np.array([i.patch for i in items])
             conds = [study.base.conditions[i.position - 1] for i in items]
             tab["S"] = np.array([c.S for c in conds])
             tab["p0"] = np.array([c.p0 for c in conds])
-            tab["p0"].attrs["unit"] = "Pa"
             tab["Lambda"] = np.array([study.item_lambda(i) for i in items])
             tab["lambda_GF"] = np.array([study.item_lambda_gf(i) for i in items])
+            mb = study.method_b
+            tab["S_lambda"] = tab["lambda_GF"][()] / mb.lambda_gfp
             tab["hc"] = np.array([c.hc for c in conds])
-            tab["hc"].attrs["unit"] = "m"
             tab["single_pair"] = np.array([c.region == "single" for c in conds], dtype=np.uint8)
             tab["roll_angle"] = np.array([c.roll_angle for c in conds])   # NaN for a disc rig
-            tab["roll_angle"].attrs["unit"] = "rad"
             tab["radial_position"] = np.array([c.radial_position for c in conds])
-            tab["radial_position"].attrs["unit"] = "m"
             f.attrs["window_problems"] = "; ".join(study.window_problems) or "none"
+            for name, unit in ITEM_UNITS.items():
+                tab[name].attrs["unit"] = unit
+            iso = f.create_group("iso6336_22")      # Method B along the path (iso6336_22.py)
+            iso["roll_angle"] = mb.roll_angle
+            iso["roll_angle"].attrs["unit"] = "rad"
+            iso["lambda_GF"] = mb.lambda_gf
+            iso["lambda_GF"].attrs["unit"] = "1"
+            for k, v in (("lambda_GF_min", mb.lambda_gf_min), ("roll_angle_min",
+                         mb.roll_angle_min), ("Ra", mb.ra), ("lambda_GFT", mb.lambda_gft),
+                         ("W_W", mb.ww), ("lambda_GFP", mb.lambda_gfp),
+                         ("S_lambda", mb.s_lambda)):
+                iso.attrs[k] = v
+            iso.attrs["summary"] = "\n".join(mb.lines())
+            mesh = study.base.mesh
+            if mesh is not None:   # the path points A–E, for plots [rad, roll angle of gear 1]
+                pts = f.create_group("path")
+                for label in "ABCDE":
+                    pts.attrs[f"{label}_roll_angle"] = float(mesh.roll_angle(getattr(mesh,
+                                                                                    label)))
             hist = f.create_group("history")
             for iid, recs in records.items():
                 g = hist.create_group(f"item_{iid:05d}")
@@ -98,14 +136,77 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
             for iid, m in maps.items():
                 g = mg.create_group(f"item_{iid:05d}")
                 for name, arr in m.items():
-                    g.create_dataset(name, data=arr, compression="gzip", compression_opts=4,
-                                     shuffle=True)
+                    d = g.create_dataset(name, data=arr, compression="gzip",
+                                         compression_opts=4, shuffle=True)
+                    d.attrs["unit"] = MAP_UNITS[name.split("/")[-1]]
             grid, z = study.window()
-            f["grid/z"] = z
-            f["grid/z"].attrs["unit"] = "m"
-            f["grid/dx"] = grid.dx
-            f["grid/dy"] = grid.dy
+            for name, value, doc in (
+                    ("x", grid.x, "along rolling, first index of every map"),
+                    ("y", grid.y, "across rolling, second index of every map"),
+                    ("z", z, "depth below the surface of the damage layers, first index of "
+                             "the damage"),
+                    ("dx", grid.dx, "spacing along rolling"),
+                    ("dy", grid.dy, "spacing across rolling")):
+                f[f"grid/{name}"] = value
+                f[f"grid/{name}"].attrs["unit"] = "m"
+                f[f"grid/{name}"].attrs["meaning"] = doc
             f.attrs["complete"] = 1
+        write_xdmf(path.with_suffix(".xdmf"), path, grid.nx, grid.ny, len(z),
+                   {iid: sorted(m) for iid, m in maps.items()})
     except OSError as e:
         raise MicropitError(f"cannot write {path}: {e.strerror or e}") from None
     return path
+
+
+def write_xdmf(xdmf: Path, h5: Path, nx: int, ny: int, nz: int,
+               maps: Mapping[int, Sequence[str]]) -> Path:
+    """An XDMF 3 file describing the final maps of ``h5`` (relative reference, so the two
+    files move together): per item a 2-D rectilinear grid with the surface maps (x, y) and a
+    3-D one with the damage (z, x, y). XDMF orders a rectilinear mesh's dimensions slowest
+    first and names the fastest axis X, so the file's X axis is our y (across rolling), its Y
+    axis our x (along rolling) and its Z axis the depth z: ParaView shows the rolling
+    direction vertically and depth along +Z."""
+    ref = h5.name
+
+    def item(dims: str, dtype: str, where: str) -> str:
+        kind, prec = {"f8": ("Float", 8), "u1": ("UChar", 1)}[dtype]
+        return (f'<DataItem Dimensions="{dims}" NumberType="{kind}" Precision="{prec}" '
+                f'Format="HDF">{ref}:{where}</DataItem>')
+
+    out = ['<?xml version="1.0" ?>', '<!DOCTYPE Xdmf SYSTEM "Xdmf.dtd" []>',
+           '<Xdmf Version="3.0">', '  <Domain>']
+    for iid, names in maps.items():
+        base = f"/maps/item_{iid:05d}"
+        surf = [n for n in names if not n.endswith("/damage")]
+        vol = [n for n in names if n.endswith("/damage")]
+        out += [f'    <Grid Name="item_{iid:05d}_surface" GridType="Uniform">',
+                f'      <Topology TopologyType="2DRectMesh" Dimensions="{nx} {ny}"/>',
+                '      <Geometry GeometryType="VXVY">',
+                "        " + item(str(ny), "f8", "/grid/y"),
+                "        " + item(str(nx), "f8", "/grid/x"),
+                "      </Geometry>"]
+        for n in surf:
+            dtype = "u1" if n.endswith("/pitted") else "f8"
+            unit = MAP_UNITS[n.split("/")[-1]]
+            out += [f'      <Attribute Name="{n.replace("/", "_")} [{unit}]" '
+                    'AttributeType="Scalar" Center="Node">',
+                    "        " + item(f"{nx} {ny}", dtype, f"{base}/{n}"),
+                    "      </Attribute>"]
+        out.append("    </Grid>")
+        if vol:
+            out += [f'    <Grid Name="item_{iid:05d}_damage" GridType="Uniform">',
+                    f'      <Topology TopologyType="3DRectMesh" Dimensions="{nz} {nx} {ny}"/>',
+                    '      <Geometry GeometryType="VXVYVZ">',
+                    "        " + item(str(ny), "f8", "/grid/y"),
+                    "        " + item(str(nx), "f8", "/grid/x"),
+                    "        " + item(str(nz), "f8", "/grid/z"),
+                    "      </Geometry>"]
+            for n in vol:
+                out += [f'      <Attribute Name="{n.replace("/", "_")} [1]" '
+                        'AttributeType="Scalar" Center="Node">',
+                        "        " + item(f"{nz} {nx} {ny}", "f8", f"{base}/{n}"),
+                        "      </Attribute>"]
+            out.append("    </Grid>")
+    out += ["  </Domain>", "</Xdmf>", ""]
+    write_text_atomic(xdmf, "\n".join(out))
+    return xdmf

@@ -31,6 +31,10 @@ from micropit_hpc.surfaces.topography import Topography, TopographyError
 
 __all__ = ["BUILTIN_EXTENSIONS", "HEIGHT_UNITS", "NAN_POLICIES", "read_topography"]
 
+#: The largest peak-to-valley span [m] a height map may have: a roughness or form map spans
+#: µm to mm; a span beyond 1 km is a corrupt file or a wrong unit (e.g. a map scaled by 1e300,
+#: whose R_q would overflow), never a surface.
+MAX_SPAN_M = 1e3
 HEIGHT_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6, "µm": 1e-6, "μm": 1e-6, "nm": 1e-9}
 NAN_POLICIES = ("error", "fill_mean", "interpolate")
 _TEXT = (".txt", ".csv", ".dat")
@@ -149,40 +153,64 @@ _READERS = {".npy": _read_npy, ".npz": _read_npz, **dict.fromkeys(_TEXT, _read_t
 _ST_UNITS = {**HEIGHT_UNITS, "pm": 1e-12, "Å": 1e-10, "km": 1e3}
 
 
-def _read_surface_topography(path: Path, dataset, height_unit: str) -> _Raw:
+_ST_NAMES = {"m": "m", "mm": "mm", "um": "µm", "µm": "µm", "μm": "µm", "nm": "nm"}
+
+
+def _read_surface_topography(path: Path, dataset, height_unit: str,
+                             spacing: tuple[float, float] | None = None) -> _Raw:
+    """Read an instrument format through SurfaceTopography. Its physical sizes and units are
+    used where the file stores them; where it stores no sizes, ``spacing`` [m] gives them (the
+    package refuses such a file without sizes)."""
     try:
         import SurfaceTopography as st
     except ImportError:
         raise _fail(path, f"unknown extension {path.suffix!r}: the built-in formats are "
-                          f"{', '.join(BUILTIN_EXTENSIONS)}; `pip install SurfaceTopography` "
-                          "adds .x3p, .sdf, .sur, .opd, .datx, .plu and other instrument "
-                          "formats") from None
-    kwargs, key = {}, None
-    if dataset is not None:
-        key = str(dataset)
-        kwargs["channel_index"] = _channel_index(st, path, dataset)
+                          f"{', '.join(BUILTIN_EXTENSIONS)}; the optional SurfaceTopography "
+                          "package adds .x3p, .sdf, .sur, .opd, .datx, .plu and other "
+                          "instrument formats: install it as docs/install.md says "
+                          "(`bash scripts/install-surfaces.sh`; a plain `pip install` would "
+                          "replace NumPy)") from None
+    key = None if dataset is None else str(dataset)
     try:
-        t = st.read_topography(str(path), **kwargs)
-        nb, sizes = tuple(t.nb_grid_pts), t.physical_sizes
-        heights = np.ma.filled(np.ma.asarray(t.heights(), dtype=float), np.nan)
+        with st.open_topography(str(path)) as reader:
+            index = 0 if dataset is None else _channel_index(path, reader, dataset)
+            ch = reader.channels[index]
+            nb, unit = tuple(ch.nb_grid_pts), ch.unit
+            kwargs = {"channel_index": index}
+            if ch.physical_sizes is None and spacing is not None and len(nb) == 2:
+                st_unit = unit or _ST_NAMES[height_unit]
+                f = _ST_UNITS[st_unit]
+                kwargs["physical_sizes"] = (nb[0] * spacing[0] / f, nb[1] * spacing[1] / f)
+                if unit is None:
+                    kwargs["unit"] = st_unit
+            elif ch.physical_sizes is None and len(nb) == 2:
+                raise _fail(path, "the file stores no physical size: give "
+                                  "surface.spacing_um = [dx, dy]", key)
+            t = reader.topography(**kwargs)
+            nb, sizes = tuple(t.nb_grid_pts), t.physical_sizes
+            heights = np.ma.filled(np.ma.asarray(t.heights(), dtype=float), np.nan)
+    except TopographyError:
+        raise
     except Exception as err:  # any failure inside the third-party reader
         raise _fail(path, f"SurfaceTopography cannot read it ({_first_line(err)})", key) from None
     if len(nb) != 2:
         raise _fail(path, f"a line scan of {nb} points, not a 2-D map", key)
     factor = (_unit(path, "SurfaceTopography unit", t.unit, _ST_UNITS) if t.unit is not None
               else HEIGHT_UNITS[height_unit])
-    spacing = None
-    if sizes is not None:
-        spacing = _spacing(path, "SurfaceTopography spacing",
-                           (sizes[0] * factor / nb[0], sizes[1] * factor / nb[1]), key)
-    return _Raw(heights, spacing, key, factor)
+    own = None
+    if sizes is not None and "physical_sizes" not in kwargs:
+        own = _spacing(path, "SurfaceTopography spacing",
+                       (sizes[0] * factor / nb[0], sizes[1] * factor / nb[1]), key)
+    return _Raw(heights, own, key, factor)
 
 
-def _channel_index(st, path: Path, dataset) -> int:
+def _channel_index(path: Path, reader, dataset) -> int:
+    names = [c.name for c in reader.channels]
     if isinstance(dataset, int) or str(dataset).isdigit():
+        if not 0 <= int(dataset) < len(names):
+            raise _fail(path, f"channel {dataset} not found (channels 0 to {len(names) - 1}: "
+                              f"{', '.join(names)})")
         return int(dataset)
-    with st.open_topography(str(path)) as reader:
-        names = [c.name for c in reader.channels]
     if dataset not in names:
         raise _fail(path, f"channel {dataset!r} not found (channels: {', '.join(names)})")
     return names.index(dataset)
@@ -258,20 +286,33 @@ def read_topography(path, *, dataset=None, spacing=None, height_unit: str = "m",
         except _READ_ERRORS as err:
             raise _fail(path, f"cannot read it as {ext} ({_first_line(err)})", dataset) from None
     else:
-        raw = _read_surface_topography(path, dataset, height_unit)
+        raw = _read_surface_topography(path, dataset, height_unit, spacing)
     key = raw.key
+    dtype = np.asarray(raw.heights).dtype
+    if dtype.kind == "c":
+        raise _fail(path, f"heights of dtype {dtype}: complex numbers, not heights (a height "
+                          "map is real: store its real part, or the map before a Fourier "
+                          "transform)", key)
+    if dtype.kind == "b":
+        raise _fail(path, f"heights of dtype {dtype}: true/false values, a mask rather than "
+                          "a height map", key)
     try:
         h = np.array(raw.heights, dtype=np.float64)
     except (TypeError, ValueError):
-        raise _fail(path, f"heights of dtype {np.asarray(raw.heights).dtype}: not numeric",
-                    key) from None
+        raise _fail(path, f"heights of dtype {dtype}: not numeric", key) from None
     if h.ndim != 2:
         raise _fail(path, f"heights of shape {h.shape}: must be a 2-D map", key)
     if h.shape[0] < 2 or h.shape[1] < 2:
         which = "a single row" if h.shape[0] < 2 else "a single column"
         raise _fail(path, f"heights of shape {h.shape} are {which}: need at least 2 points "
                           "along x (axis 0) and y (axis 1)", key)
-    source = "argument" if spacing is not None else "file"
+    if spacing is None:
+        source = "file"
+    elif raw.spacing is None:
+        source = "argument (the file stores none)"
+    else:
+        source = (f"argument, overriding the file's own {raw.spacing[0]:.6g} m x "
+                  f"{raw.spacing[1]:.6g} m")
     spacing = spacing or raw.spacing
     if spacing is None:
         raise _fail(path, f"the {ext} file gives no grid spacing: pass spacing=(dx, dy) in "
@@ -280,6 +321,15 @@ def read_topography(path, *, dataset=None, spacing=None, height_unit: str = "m",
     factor = raw.height_factor if raw.height_factor is not None else h_factor
     h *= factor
     unit = "file unit" if raw.height_factor is not None else height_unit
+    finite = h[np.isfinite(h)]
+    span = float(finite.max()) - float(finite.min())   # Python floats: inf, no warning
+    if not np.isfinite(span) or span > MAX_SPAN_M:
+        raise _fail(path, f"heights span {span:.3g} m (in {unit}): no measured roughness map "
+                          f"spans more than {MAX_SPAN_M / 1e3:g} km; check height_unit (or "
+                          "the file's own unit)", key)
+    if span == 0.0:
+        raise _fail(path, f"all {h.size} heights are {finite[0]:.6g} m: a constant map has no "
+                          "roughness (for a smooth body use surface.kind = \"smooth\")", key)
     prov = (f"read {path}" + (f" [{key}]" if key else "") + f"; heights in {unit}; "
             f"spacing {spacing[0]:.6g} m x {spacing[1]:.6g} m from {source}{filled}")
     return Topography(h, spacing[0], spacing[1], prov)
