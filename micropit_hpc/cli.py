@@ -292,7 +292,7 @@ def _run_locked(args, comm, control, log, t0, scene, opts, n_blocks) -> str:
             write_summary(staged / "summary.csv", SUMMARY_COLUMNS, rows)
             write_results(staged / "results.h5", study, outcome.records, maps, meta)
             try:
-                manifest = outdir.publish(out, ("summary.csv", "results.h5"), {
+                manifest = outdir.publish(out, ("summary.csv", "results.h5", "results.xdmf"), {
                     "status": outcome.status, "blocks_done": outcome.blocks_done,
                     "blocks": study.blocks, "run_id": outcome.run_id})
             except OSError as e:

@@ -55,8 +55,8 @@ def main() -> int:
     elif me == rank and where == "internal":
         run_block = study.ItemRun.run_block
 
-        def bad_block(self, cycles=None):
-            run_block(self, cycles)
+        def bad_block(self, *a, **k):
+            run_block(self, *a, **k)
             raise KeyError("records")
         study.ItemRun.run_block = bad_block
     return cli_main(argv)

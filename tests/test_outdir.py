@@ -37,9 +37,10 @@ def run(scene, out, *extra):
 
 
 def test_a_finished_run_publishes_a_manifest_matching_both_files(finished):
+    """summary.csv, results.h5 and the XDMF that describes it appear together."""
     _, out = finished
     m = json.loads((out / outdir.MANIFEST).read_text())
-    assert sorted(m["files"]) == ["results.h5", "summary.csv"]
+    assert sorted(m["files"]) == ["results.h5", "results.xdmf", "summary.csv"]
     assert m["status"] == "done" and m["blocks_done"] == m["blocks"] == 2
     assert outdir.check_manifest(out) is None
     assert not (out / outdir.LOCK).exists() and not (out / outdir.STAGING).exists()

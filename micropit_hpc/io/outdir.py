@@ -34,7 +34,7 @@ LOCK = ".micropit.lock"
 MANIFEST = "manifest.json"
 STAGING = ".publish"
 #: What a run leaves in its folder (besides ``checkpoints/``): refused or cleared by a fresh run.
-RUN_FILES = ("summary.csv", "results.h5", MANIFEST)
+RUN_FILES = ("summary.csv", "results.h5", "results.xdmf", MANIFEST)
 HEARTBEAT_S = 30.0
 STALE_S = 600.0
 JOB_VARS = ("SLURM_JOB_ID", "PBS_JOBID", "LSB_JOBID")

@@ -130,6 +130,7 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
                          or "none" for r in recs]
                 g.create_dataset("flags", data=np.array(flags, dtype=object),
                                  dtype=h5py_module().string_dtype())
+                g["flags"].attrs["unit"] = "1"
                 g["flags"].attrs["description"] = ("per block: flags outside the model's range "
                                                    "(docs/life.md, \"The model's range\")")
             mg = f.create_group("maps")
