@@ -25,7 +25,7 @@ import argparse
 import csv
 import time
 import tomllib
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -85,15 +85,15 @@ def main(argv=None) -> int:
             for i in ("paper", "adaptive") for k in (0.0, 1e-11)
             for b in args.blocks.split(",")]
     todo = [j for j in jobs if (j[0], j[1], j[2], j[3], j[4]) not in have]
-    # the longest first: adaptive, small blocks, the MPR rig
-    todo.sort(key=lambda j: (j[1] != "adaptive", j[0] != "mpr", j[3]))
+    # the paper's scheme first (one evaluation per block), then the adaptive one from the
+    # longest blocks down (its cost grows as ΔN shrinks: its floor is ΔN / life.max_splits)
+    todo.sort(key=lambda j: (j[1] != "paper", -j[3], j[0]))
     new_file = not table.is_file()
     with open(table, "a", newline="") as fh, ProcessPoolExecutor(args.procs) as pool:
         w = csv.DictWriter(fh, COLUMNS)
         if new_file:
             w.writeheader()
-        futures = {pool.submit(run_one, *j): j for j in todo}
-        for fut in futures:
+        for fut in as_completed([pool.submit(run_one, *j) for j in todo]):
             row = fut.result()
             w.writerow(row)
             fh.flush()

@@ -184,7 +184,17 @@ class BlockRecord:
     largest shape change one sub-block's wear made (:func:`shape_change`), over the body's
     initial R_q (the split aims at ≤ ``max_wear_fraction``; above it the split stopped at
     ``max_splits``). ``pit_step``: the largest share of the window's columns one sub-block
-    newly pitted on either body (the split aims at ≤ ``max_pit_step``)."""
+    newly pitted on either body (the split aims at ≤ ``max_pit_step``).
+
+    The model's range (:mod:`micropit_hpc.regime` turns these into flags and warnings):
+    ``low_cycle_damage``: the share of the block's damage (summed over the material points)
+    that came from N < n_min; ``low_cycle_pits``: the share of the block's newly pitted
+    columns whose failing point took most of its damage from N < n_min (0 without new pits);
+    ``plastic_share``: the share of the contact area at p_lim (the block's evaluations,
+    weighted by their cycles); ``deep_damage``: :func:`deep_damage_ratio`, the largest over
+    the block's evaluations; ``slope``: each surface's RMS slope Δq along x at the end of the
+    block, of the surface the contact sees (the pits filled: their walls carry no load)
+    [rad]; ``pit_depth_max``: the deepest cumulative pit of each body [m]."""
 
     block: int
     cycles: float
@@ -559,6 +569,6 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
         low_cycle_damage=pair(lambda i: low_added[i] / added[i] if added[i] > 0 else 0.0),
         low_cycle_pits=pair(lambda i: low_pits[i] / new_pits[i] if new_pits[i] else 0.0),
         plastic_share=plastic_acc / n_done, deep_damage=(deep[0], deep[1]),
-        slope=pair(lambda i: rms_slope(b[i].heights, cycle.grid.dx)),
+        slope=pair(lambda i: rms_slope(b[i].heights + b[i].pit_depth, cycle.grid.dx)),
         pit_depth_max=pair(lambda i: float(b[i].pit_depth.max())))
     return rec

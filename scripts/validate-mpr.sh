@@ -31,7 +31,7 @@ for entry in "${runs[@]}"; do
     name=${entry%%:*}
     scene=${entry#*:}
     echo "== micropit run $scene on $np ranks"
-    mpirun -n "$np" "$py" -m micropit_hpc run "$scene" --out "runs/$name"
+    mpirun -n "$np" "$py" -m micropit_hpc run "$scene" --out "runs/$name" --overwrite
     case "$name" in
         *table9*) echo "== $name: A_p against Λ (trend 7)"
                   "$py" postprocess/paper_mpr.py table9 "runs/$name" || status=1 ;;

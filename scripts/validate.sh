@@ -27,14 +27,14 @@ if [ -z "${GEARS_ONLY:-}" ]; then
 fi
 for name in paper_gear_z23 paper_gear_z23_table5 paper_gear_z23_table8 paper_gear_z18; do
     echo "== micropit run scenes/$name.toml on $np ranks"
-    mpirun -n "$np" "$py" -m micropit_hpc run "scenes/$name.toml" --out "runs/$name"
+    mpirun -n "$np" "$py" -m micropit_hpc run "scenes/$name.toml" --out "runs/$name" --overwrite
     "$py" postprocess/plot_flank.py "runs/$name"
 done
 if [ "${ADAPTIVE:-1}" != 0 ]; then
     for name in paper_gear_z23 paper_gear_z23_table5 paper_gear_z23_table8 paper_gear_z18; do
         scene=$(bash scripts/adaptive-scene.sh "$name")
         echo "== micropit run $scene (adaptive blocks) on $np ranks"
-        mpirun -n "$np" "$py" -m micropit_hpc run "$scene" --out "runs/${name}_adaptive"
+        mpirun -n "$np" "$py" -m micropit_hpc run "$scene" --out "runs/${name}_adaptive" --overwrite
         "$py" postprocess/plot_flank.py "runs/${name}_adaptive"
     done
     if [ -z "${GEARS_ONLY:-}" ]; then
