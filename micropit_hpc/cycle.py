@@ -313,8 +313,8 @@ class PositionCycle:
         """Pressure and friction traction of ``fields`` in the material frame of ``body``:
         F_i(X) = F(X + (u_i − ū) t) by periodic linear interpolation along x
         (:func:`~micropit_hpc.spectral.to_material_frame`; docs/contact.md, "The stress
-        history"). The pressure stays in [0, p_lim] and keeps its
-        mean p̄, the traction its mean μ̄ p̄."""
+        history"). The pressure stays in [0, p_lim] and keeps its mean p̄, the traction its
+        mean μ̄ p̄."""
         s = self.slip(body, fields.t)
         q = fields.traction1 if body == 1 else fields.traction2
         dx = self.grid.dx
@@ -323,9 +323,10 @@ class PositionCycle:
     def macro_stress(self, fields: StepFields, body: int) -> np.ndarray:
         """The macro Hertz field with the mean traction μ̄ p_H at the window centre x_c(t_j)
         (and y = 0), shape (6, N_z, 1, 1): the same at every point of the window
-        (docs/contact.md, "The stress history"). The micro contact is solved about the uniform mean
-        pressure p̄_j = p_H(x_c), so this is the field whose surface values, σ_zz(0) = −p̄_j and
-        σ_xz(0) = −μ̄ p̄_j, complete the micro field's to the contact's own p and q."""
+        (docs/contact.md, "The stress history"). The micro contact is solved about the uniform
+        mean pressure p̄_j = p_H(x_c), so this is the field whose surface values,
+        σ_zz(0) = −p̄_j and σ_xz(0) = −μ̄ p̄_j, complete the micro field's to the contact's own
+        p and q."""
         c = self.cond
         q = fields.traction1 if body == 1 else fields.traction2
         p_sum = float(fields.pressure.sum())
@@ -342,8 +343,8 @@ class PositionCycle:
         step of ``fields`` (docs/contact.md, "The stress history"): the micro field (Fourier
         kernels, App. A.1) of the pressure and traction moved into the material frame
         (:meth:`material_tractions`), less their means, plus the macro field at the window
-        centre (:meth:`macro_stress`). At
-        z = 0: σ_zz = −p and σ_xz = −q of the material-frame maps, to round-off."""
+        centre (:meth:`macro_stress`). At z = 0: σ_zz = −p and σ_xz = −q of the
+        material-frame maps, to round-off."""
         g = self.grid
         b_body = self.scene.body1 if body == 1 else self.scene.body2
         slab = self.slab

@@ -377,12 +377,12 @@ def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
         rows = slice(None) if slab is None else slab.rows
         added = n * bc.damage_rate
         low = None if bc.damage_low is None else n * bc.damage_low
-        # the point of each column that fails first decides where its pit's damage came from
-        top = np.argmax(bs.damage + added, axis=0)[None]
+        bs.damage += added
+        # the most damaged point of each column decides where its pit's damage came from
+        top = np.argmax(bs.damage, axis=0)[None]
         low_col = (np.zeros(top.shape[1:], bool) if low is None else
                    2.0 * np.take_along_axis(low, top, 0)[0]
-                   > np.take_along_axis(bs.damage + added, top, 0)[0])
-        bs.damage += added
+                   > np.take_along_axis(bs.damage, top, 0)[0])
         dh = bc.wear.depth(n, wear_integration)
         worn = shape_change(dh, ~bs.pitted)
         if dh.any():
@@ -556,7 +556,6 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
     b = state.bodies
     added = [slab.sum(a) for a in added]
     low_added = [slab.sum(a) for a in low_added]
-    pair = lambda f: (f(0), f(1))  # noqa: E731
     rec = BlockRecord(
         block=state.block, cycles=state.cycles, sub_blocks=subs, phi=phi_acc / n_done,
         wall_s=time.perf_counter() - t0, Ap=(b[0].Ap, b[1].Ap),
@@ -566,9 +565,11 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
         Rq=(b[0].rq, b[1].rq),
         n_micro=(result.bodies[0].n_micro, result.bodies[1].n_micro), wear_step=wear_step,
         pit_step=pit_step,
-        low_cycle_damage=pair(lambda i: low_added[i] / added[i] if added[i] > 0 else 0.0),
-        low_cycle_pits=pair(lambda i: low_pits[i] / new_pits[i] if new_pits[i] else 0.0),
+        low_cycle_damage=tuple(lo / a if a > 0 else 0.0 for lo, a in zip(low_added, added,
+                                                                          strict=True)),
+        low_cycle_pits=tuple(lo / n if n else 0.0 for lo, n in zip(low_pits, new_pits,
+                                                                    strict=True)),
         plastic_share=plastic_acc / n_done, deep_damage=(deep[0], deep[1]),
-        slope=pair(lambda i: rms_slope(b[i].heights + b[i].pit_depth, cycle.grid.dx)),
-        pit_depth_max=pair(lambda i: float(b[i].pit_depth.max())))
+        slope=tuple(rms_slope(bs.heights + bs.pit_depth, cycle.grid.dx) for bs in b),
+        pit_depth_max=tuple(float(bs.pit_depth.max()) for bs in b))
     return rec
