@@ -528,7 +528,7 @@ def _mpi_world():
 
 
 def _fail(e: BaseException, debug: bool) -> int:
-    """Report ``e`` once and end the job (HPC.md §4: one rank's error must not hang the others).
+    """Report ``e`` once and end the job (one rank's error must not hang the others; docs/jobs.md).
 
     A user error (:class:`MicropitError`) is one line ``micropit: error: ...``; any other
     exception is a bug: its traceback (one rank only) and a one-line summary. On one rank the

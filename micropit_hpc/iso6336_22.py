@@ -7,7 +7,7 @@ along the path of contact with a permissible one derived from the oil's micropit
   :func:`micropit_hpc.film.iso_lambda_gf`), and λ_GF,min its minimum over the path A…E.
   Here h_Y is the scene's film (``film.model``, DH61 by default, a Dowson–Higginson form like
   the standard's; without its thermal sliding parameter S_GF and at the oil inlet temperature
-  instead of the bulk temperature θ_M: "Method B style", MODEL.md §6).
+  instead of the bulk temperature θ_M: "Method B style", docs/lubricant.md).
 * λ_GFP = 1.4 W_W λ_GFT: the permissible specific film thickness from λ_GFT, the specific film
   thickness of the FVA 54 test gears (FZG type C) at the oil's failure load stage SKS and test
   temperature, and the material factor W_W (1.0 for case-carburised steel).

@@ -79,7 +79,7 @@ def mpr(run: Path, say=print) -> bool:
 
 def bracket(run15: Path, run30: Path, say=print) -> tuple[bool, list[list]]:
     """Whether the paper's model A_p at 6 M (and 10 M) lies between our results of the two
-    surface variants (β_x = 15 and 30 µm) at each |S| (MODEL.md §7, revised); returns the
+    surface variants (β_x = 15 and 30 µm) at each |S| (docs/validation/README.md); returns the
     verdict and the table rows (|S|, cycles, experiment, paper's model, ours β15, ours β30,
     inside?)."""
     paper = list(csv.DictReader(open(ROOT / "validation" / "mpr_triple_disc_Ap.csv")))

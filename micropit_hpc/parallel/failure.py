@@ -1,4 +1,4 @@
-"""Ending the whole job when one rank fails (HPC.md §4; issue 21 item 1).
+"""Ending the whole job when one rank fails (docs/jobs.md, exit codes and collective failure).
 
 A rank that raises while the others wait for it in a collective call (a gather after a block,
 a collective HDF5 write or close) must not leave them spinning: it prints its one-line message
