@@ -227,3 +227,19 @@ def test_a_run_reports_the_range_in_summary_log_and_results(tmp_path, capsys):
     with h5py.File(tmp_path / "out" / "results.h5", "r") as f:
         flags = [s.decode() for s in f["history/item_00000/flags"][()]]
     assert flags == [r["flags"] for r in rows if r["body"] == "1"]
+
+
+def test_the_scene_keys_reach_the_life_loop():
+    """fatigue.n_min / low_cycle and life.integration from a scene file to LifeParams, and a
+    bad value refused naming the key."""
+    from micropit_hpc.errors import SceneError
+
+    doc = tiny_doc()
+    doc["fatigue"] = {"n_min": 1e5, "low_cycle": "cap"}
+    doc["life"]["integration"] = "paper"
+    p = LifeParams.from_scene(scene_from_dict(doc, "keys.toml"), 0.0)
+    assert (p.woehler.n_min, p.woehler.low_cycle, p.integration) == (1e5, "cap", "paper")
+    assert p.woehler.damage(np.array([1.5e9]))[0] == pytest.approx(1e-5)
+    doc["life"]["integration"] = "implicit"
+    with pytest.raises(SceneError, match=r"life\.integration = .implicit.*adaptive.*paper"):
+        scene_from_dict(doc, "keys.toml")
