@@ -5,9 +5,8 @@
 # surfaces' correlation length along rolling doubled (scenes/*_beta30.toml: the paper's maps
 # are not public, so this is the sensitivity to that unknown, not a fit); writes the
 # side-by-side tables next to the results in runs/<scene>/ and prints the trend verdicts.
-# On 2 cores (commit 9d3aafc): paper_mpr 5.9 min, paper_mpr_beta30 11.6, paper_mpr_table9_beta30
-# 33.7; paper_mpr_table9 about 90 min (6 blocks of 12-17 min, commits 1114554 and 5bdf427),
-# so about 2 h 20 min in all (SCENES="paper_mpr" for a subset).
+# On 2 cores (2026-11-23): the four scenes 2.5 min each in the paper's scheme; adaptive
+# paper_mpr 13 min, _beta30 4 min, paper_mpr_table9 33 min, _table9_beta30 10 min.
 # Each scene runs as written (the paper's block scheme) and, unless ADAPTIVE=0, a second time
 # with `life.integration = "adaptive"` into runs/<scene>_adaptive/ (ADAPTIVE_ONLY=1: only that).
 # Exit status 1 if a trend fails.

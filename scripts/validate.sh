@@ -5,10 +5,9 @@
 # paper_gear_z23_table8.toml and paper_gear_z18.toml: Table 8), then the report
 # docs/validation/README.md with the figures, our numbers beside the paper's and one PASS/FAIL
 # line per trend (postprocess/validation_report.py). Runs go to runs/<scene>/.
-# On 2 cores (commits cf4625f, 5bdf427): the gear studies 22 min; the MPR scenes 51 min plus
-# about 90 min for paper_mpr_table9, about 2 h 45 min in all (scripts/validate-mpr.sh gives
-# each). SCENES="..." picks MPR scenes; GEARS_ONLY=1 skips the MPR runs
-# (their last results are reused).
+# On 2 cores (2026-11-23, commit 3bb5ded, with tests running beside it): 89 min in all, the
+# paper-scheme runs 14 min, the adaptive gear runs 15 min, the adaptive MPR runs 60 min.
+# SCENES="..." picks MPR scenes; GEARS_ONLY=1 skips the MPR runs (their last results are reused).
 # Every paper scene runs the paper's block scheme (its `life.integration = "paper"`); each is run
 # a second time with `integration = "adaptive"` (runs/<scene>_adaptive/, from a copy of the scene
 # with that one key changed), and the report gives both. ADAPTIVE=0 skips the adaptive runs
