@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The MPR triple-disc validation of the paper (MODEL.md §7 trends 1 and 7), on NP ranks
+# The MPR triple-disc validation of the paper (trends 1 and 7, docs/validation/README.md), on NP ranks
 # (default 2): runs scenes/paper_mpr.toml (|S| = 0.05, 0.15, 0.30 to 10 M cycles) and
 # scenes/paper_mpr_table9.toml (Λ scaling with and without wear), and the same two with the
 # surfaces' correlation length along rolling doubled (scenes/*_beta30.toml: the paper's maps

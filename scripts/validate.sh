@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The validation of MODEL.md §7 against the paper, on NP ranks (default 2): the MPR rig and its
+# The validation against the paper's trends (docs/validation/README.md), on NP ranks (default 2): the MPR rig and its
 # Λ scaling (scripts/validate-mpr.sh: scenes/paper_mpr*.toml), then the gear studies
 # (scenes/paper_gear_z23.toml: Table 4; paper_gear_z23_table5.toml: Table 5;
 # paper_gear_z23_table8.toml and paper_gear_z18.toml: Table 8), then the report
