@@ -379,10 +379,11 @@ def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
         low = None if bc.damage_low is None else n * bc.damage_low
         bs.damage += added
         # the most damaged point of each column decides where its pit's damage came from
-        top = np.argmax(bs.damage, axis=0)[None]
-        low_col = (np.zeros(top.shape[1:], bool) if low is None else
-                   2.0 * np.take_along_axis(low, top, 0)[0]
-                   > np.take_along_axis(bs.damage, top, 0)[0])
+        if low is None:
+            low_col = np.zeros(bs.damage.shape[1:], bool)
+        else:
+            top = np.argmax(bs.damage, axis=0)[None]
+            low_col = 2.0 * np.take_along_axis(low, top, 0)[0] > bs.damage.max(axis=0)
         dh = bc.wear.depth(n, wear_integration)
         worn = shape_change(dh, ~bs.pitted)
         if dh.any():

@@ -35,6 +35,7 @@ import numpy as np
 from micropit_hpc import __version__
 from micropit_hpc.errors import MicropitError, collective
 from micropit_hpc.io.hdf5 import h5py_module as _h5py
+from micropit_hpc.io.outdir import fsync_path
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.parallel.failure import abort_on_error
 from micropit_hpc.report import write_text_atomic
@@ -229,15 +230,6 @@ def _checksummed(shape: tuple[int, ...], itemsize: int) -> dict:
     return {"chunks": tuple(chunk), "fletcher32": True}
 
 
-def _fsync(path: Path) -> None:
-    """fsync a file or a directory (for a directory: its entries, e.g. a rename)."""
-    fd = os.open(path, os.O_RDONLY)
-    try:
-        os.fsync(fd)
-    finally:
-        os.close(fd)
-
-
 def _at_stage(stage: str, path: Path) -> None:
     """Test hook, called at each step of :func:`write_checkpoint` (``"created"``, ``"data"``,
     ``"closed"``, ``"renamed"``); crash tests replace it with a function that kills the
@@ -349,7 +341,7 @@ def write_checkpoint(directory: str | Path, comm, block: int, n_items: int,
         for key in sorted(stored):
             f.attrs[key] = stored[key]
         f.attrs["complete"] = np.int64(1)  # last: a reader trusts nothing without it
-    _fsync(tmp)  # each rank flushes what its node wrote (matters on parallel FS)
+    fsync_path(tmp)  # each rank flushes what its node wrote (matters on parallel FS)
     comm.Barrier()
     _at_stage("closed", tmp)
 
@@ -357,10 +349,10 @@ def write_checkpoint(directory: str | Path, comm, block: int, n_items: int,
     if rank == 0:
         try:
             os.replace(tmp, final)
-            _fsync(directory)
+            fsync_path(directory)
             _at_stage("renamed", final)
             write_text_atomic(directory / LATEST, final.name + "\n")
-            _fsync(directory)
+            fsync_path(directory)
             _prune(directory, int(block), int(keep))
         except OSError as e:
             problem = f"{final}: {e}"

@@ -44,7 +44,8 @@ def _job_id() -> str | None:
     return next((os.environ[v] for v in JOB_VARS if os.environ.get(v)), None)
 
 
-def _fsync_dir(path: Path) -> None:
+def fsync_path(path: Path) -> None:
+    """fsync a file or a directory (for a directory: its entries, e.g. a rename)."""
     fd = os.open(path, os.O_RDONLY)
     try:
         os.fsync(fd)
@@ -173,7 +174,7 @@ def clear_run(out: Path) -> None:
         (out / n).unlink(missing_ok=True)
     shutil.rmtree(out / "checkpoints", ignore_errors=True)
     shutil.rmtree(out / STAGING, ignore_errors=True)
-    _fsync_dir(out)
+    fsync_path(out)
 
 
 def prepare(out: Path, comm, *, restart: bool, overwrite: bool,
@@ -238,14 +239,14 @@ def publish(out: Path, names: tuple[str, ...], meta: dict) -> Path:
     files = {n: {"bytes": (stage / n).stat().st_size, "sha256": _sha256(stage / n)}
              for n in names}
     (out / MANIFEST).unlink(missing_ok=True)
-    _fsync_dir(out)
+    fsync_path(out)
     for n in names:
         os.replace(stage / n, out / n)
-    _fsync_dir(out)
+    fsync_path(out)
     manifest = {"files": files, **meta,
                 "published_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")}
     write_text_atomic(out / MANIFEST, json.dumps(manifest, indent=1, sort_keys=True) + "\n")
-    _fsync_dir(out)
+    fsync_path(out)
     shutil.rmtree(stage, ignore_errors=True)
     return out / MANIFEST
 
