@@ -19,9 +19,9 @@ import numpy as np
 
 from micropit_hpc import __version__, source_commit
 from micropit_hpc.errors import MicropitError
+from micropit_hpc.io.atomic import write_text_atomic
 from micropit_hpc.io.hdf5 import atomic_h5, h5py_module, scene_json
 from micropit_hpc.regime import block_flags
-from micropit_hpc.report import write_text_atomic
 
 __all__ = ["MAP_UNITS", "write_results", "write_summary", "write_xdmf"]
 
