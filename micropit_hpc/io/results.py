@@ -277,6 +277,9 @@ class Table(Mapping):
         """Length of the first axis (items, blocks or summary rows; 0 when empty)."""
         return next((len(a) for a in self.columns.values() if a.ndim), 0)
 
+    def __repr__(self) -> str:
+        return f"Table({self.source}: {self.rows} rows; {', '.join(self.columns)})"
+
 
 @dataclass(frozen=True, eq=False)
 class Grid:
@@ -338,6 +341,11 @@ class Results:
     path_points: Mapping[str, float] = field(default_factory=dict)
     map_names: Mapping[int, tuple[str, ...]] = field(default_factory=dict)
     summary: Table | None = None
+
+    def __repr__(self) -> str:
+        blocks = max((h.rows for h in self.history.values()), default=0)
+        return (f"Results({self.file}: {self.items.rows} items, {blocks} blocks, status "
+                f"{self.status or '?'})")
 
     @property
     def folder(self) -> Path:
