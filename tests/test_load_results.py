@@ -117,6 +117,7 @@ def test_shapes_units_and_the_summary_agree(run_dir):
     s = res.summary
     assert s is not None and s.rows == 2 * 2 * 2 and s.units["Ap_pct"] == "%"
     assert s["item"].dtype.kind == "i" and s["flags"].dtype.kind == "U"
+    assert all(s.units[c] for c in s if c != "flags")      # every column has its unit
     assert load_summary(run_dir / "summary.csv")["cycles"].tolist() == s["cycles"].tolist()
     for iid in res.ids:
         for body in (1, 2):
