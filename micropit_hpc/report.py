@@ -3,11 +3,9 @@
 from __future__ import annotations
 
 import math
-import os
-import tempfile
-from pathlib import Path
 
 from micropit_hpc.conditions import ContactStudy
+from micropit_hpc.io.atomic import write_text_atomic  # noqa: F401  (re-exported)
 
 CONTACT_COLUMNS = ("position", "roll_angle_deg", "radial_pos_mm", "R_mm", "w_N_per_m", "p0_GPa",
                    "b_um", "S", "u_mean_m_s", "hc_um", "Lambda", "region", "lambda_GF")
@@ -81,34 +79,3 @@ def path_summary(study: ContactStudy) -> list[str]:
                        f"{c.b * 1e6:.4g} µm (rolling), a_y = {c.a * 1e6:.4g} µm (across)")
     from micropit_hpc.iso6336_22 import method_b
     return out + method_b(study).lines()
-
-
-def write_text_atomic(path: str | Path, text: str) -> None:
-    """Write a file so that a crash never leaves it half-written (temporary file + rename)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    try:
-        os.fchmod(fd, 0o666 & ~_umask())   # mkstemp makes 0600; a plain file follows the umask
-        with os.fdopen(fd, "w") as fh:
-            fh.write(text)
-            fh.flush()
-            os.fsync(fh.fileno())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-
-
-def _umask() -> int:
-    """The process's umask (read without changing it where Linux allows)."""
-    try:
-        with open("/proc/self/status") as fh:
-            for line in fh:
-                if line.startswith("Umask:"):
-                    return int(line.split()[1], 8)
-    except (OSError, ValueError):
-        pass
-    mask = os.umask(0o022)
-    os.umask(mask)
-    return mask

@@ -19,44 +19,47 @@ import sys
 from collections import defaultdict
 from pathlib import Path
 
-import h5py
 import matplotlib
 
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt
 import numpy as np
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-def path_data(run: Path) -> dict:
+from micropit_hpc.errors import MicropitError
+from micropit_hpc.io.results import Results, load_results
+
+
+def path_data(run: Path | Results) -> dict:
     """The path of contact and Method B of a run: roll angles of A–E [deg] (empty for older
     results), λ_GF along the path, λ_GF,min, λ_GFP and S_λ (NaN when not known)."""
     out = {"points": {}, "roll_deg": np.array([]), "lambda_GF": np.array([]),
            "lambda_GF_min": math.nan, "lambda_GFP": math.nan, "S_lambda": math.nan}
-    with h5py.File(run / "results.h5", "r") as f:
-        if "path" in f:
-            out["points"] = {k: math.degrees(f["path"].attrs[f"{k}_roll_angle"])
-                             for k in "ABCDE"}
-        if "iso6336_22" in f:
-            iso = f["iso6336_22"]
-            out["roll_deg"] = np.degrees(iso["roll_angle"][()])
-            out["lambda_GF"] = iso["lambda_GF"][()]
-            for k in ("lambda_GF_min", "lambda_GFP", "S_lambda"):
-                out[k] = float(iso.attrs[k])
+    res = run if isinstance(run, Results) else load_results(run)
+    if res.path_points:
+        out["points"] = {k: math.degrees(v) for k, v in res.path_points.items()}
+    iso = res.iso6336_22
+    if iso is not None:
+        out["roll_deg"] = np.degrees(iso.roll_angle)
+        out["lambda_GF"] = iso.lambda_GF
+        for k in ("lambda_GF_min", "lambda_GFP", "S_lambda"):
+            out[k] = float(getattr(iso, k))
     return out
 
 
-def flank_table(run: Path) -> list[dict]:
+def flank_table(run: Path | Results) -> list[dict]:
     """One row per (position, k_lub): roll angle, S, p0, Λ, λ_GF (mean over patches), λ_GFP
     and λ_GF/λ_GFP, the pair zone, A_p of each body (mean, min, max over patches and
-    roughness scales) at the last block."""
-    with h5py.File(run / "results.h5", "r") as f:
-        it = {k: f[f"items/{k}"][()] for k in f["items"]}
-        gfp = float(f["iso6336_22"].attrs["lambda_GFP"]) if "iso6336_22" in f else math.nan
-        if "roll_angle" not in it or np.all(np.isnan(it["roll_angle"])):
-            raise SystemExit(f"{run}/results.h5 is not a gear flank study (no roll angles); "
-                             "use postprocess/plot_life.py")
-        final = {int(i): f[f"history/item_{int(i):05d}/Ap"][-1] for i in it["id"]}
-        cycles = {int(i): f[f"history/item_{int(i):05d}/cycles"][-1] for i in it["id"]}
+    roughness scales) at the last block. ``run``: a run folder or its loaded results."""
+    res = run if isinstance(run, Results) else load_results(run)
+    it = dict(res.items)
+    gfp = res.iso6336_22.lambda_GFP if res.iso6336_22 is not None else math.nan
+    if "roll_angle" not in it or np.all(np.isnan(it["roll_angle"])):
+        raise SystemExit(f"{res.file} is not a gear flank study (no roll angles); "
+                         "use postprocess/plot_life.py")
+    final = {int(i): res.history[int(i)]["Ap"][-1] for i in it["id"]}
+    cycles = {int(i): res.history[int(i)]["cycles"][-1] for i in it["id"]}
     groups: dict[tuple, list[int]] = defaultdict(list)
     for k in range(len(it["id"])):
         groups[(int(it["position"][k]), float(it["k_lub"][k]))].append(k)
@@ -179,11 +182,16 @@ def main() -> int:
         print(f"plot_flank: no {a.run}/results.h5 (run `micropit run SCENE --out {a.run}`)",
               file=sys.stderr)
         return 2
-    rows = flank_table(a.run)
+    try:
+        res = load_results(a.run)
+    except MicropitError as e:
+        print(f"plot_flank: {e}", file=sys.stderr)
+        return 2
+    rows = flank_table(res)
     out = a.out or a.run / "flank.png"
     cycles = max(r["cycles_M"] for r in rows)
     plot(rows, out, f"{a.run.name}: micropitted area after {cycles:g} M cycles",
-         path_data(a.run))
+         path_data(res))
     table = a.run / "flank.csv"
     with open(table, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=list(rows[0]))

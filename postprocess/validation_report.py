@@ -21,7 +21,6 @@ import shutil
 import sys
 from pathlib import Path
 
-import h5py
 import matplotlib
 
 matplotlib.use("Agg")
@@ -38,6 +37,7 @@ import paper_mpr  # noqa: E402
 import plot_flank  # noqa: E402
 
 from micropit_hpc import describe_source  # noqa: E402
+from micropit_hpc.io.results import load_results  # noqa: E402
 from micropit_hpc.trends import (  # noqa: E402
     FlankPoint,
     Verdict,
@@ -81,13 +81,13 @@ def _write_csv(path: Path, rows: list[dict]) -> None:
 
 
 def _run_info(run: Path) -> dict:
-    with h5py.File(run / "results.h5", "r") as f:
-        a = f.attrs
-        return {"wall_s": float(a.get("wall_s", math.nan)), "ranks": int(a.get("ranks", 0)),
-                "status": str(a.get("status", "?")), "items": int(f["items/id"].shape[0]),
-                "restarted": int(a.get("restarted_from_block", 0)),
-                "created": str(a.get("created_utc", "?"))[:16].replace("T", " "),
-                "commit": str(a.get("source_commit", "")) or "not recorded"}
+    res = load_results(run)
+    a = res.attrs
+    return {"wall_s": float(a.get("wall_s", math.nan)), "ranks": int(a.get("ranks", 0)),
+            "status": str(a.get("status", "?")), "items": res.items.rows,
+            "restarted": int(a.get("restarted_from_block", 0)),
+            "created": str(a.get("created_utc", "?"))[:16].replace("T", " "),
+            "commit": str(a.get("source_commit", "")) or "not recorded"}
 
 
 def _points(rows: list[dict], k_lub: float, body: int) -> list[FlankPoint]:
@@ -190,36 +190,36 @@ def _merge(verdicts: list[Verdict]) -> list[Verdict]:
 def damage_maps(run: Path, path: Path) -> None:
     """Damage risk (max over depth of D, pits red) of the driver at five positions and every
     wear coefficient, patch 0, like the paper's Fig. 9."""
-    with h5py.File(run / "results.h5", "r") as f:
-        it = {k: f[f"items/{k}"][()] for k in f["items"]}
-        pos = sorted(set(int(p) for p in it["position"]))
-        show = [p for p in (2, 4, 6, 8, 10) if p in pos] or pos[:5]
-        ks = sorted(set(float(k) for k in it["k_lub"]))
-        fig, axes = plt.subplots(len(ks), len(show), figsize=(2.4 * len(show), 2.3 * len(ks)),
-                                 squeeze=False)
-        dx, dy = float(f["grid/dx"][()]), float(f["grid/dy"][()])
-        for i, k in enumerate(ks):
-            for j, p in enumerate(show):
-                ax = axes[i, j]
-                sel = np.flatnonzero((it["position"] == p) & (it["k_lub"] == k)
-                                     & (it["patch"] == 0))
-                ax.set_xticks([])
-                ax.set_yticks([])
-                if not sel.size:
-                    continue
-                m = f[f"maps/item_{int(it['id'][sel[0]]):05d}/body1"]
-                risk, pitted = m["damage_risk"][()], m["pitted"][()].astype(bool)
-                ext = (0, risk.shape[1] * dy * 1e6, 0, risk.shape[0] * dx * 1e6)
-                im = ax.imshow(np.clip(risk, 0, 1), origin="lower", extent=ext, cmap="viridis",
-                               vmin=0, vmax=1, aspect="auto")
-                ax.imshow(np.ma.masked_where(~pitted, pitted), origin="lower", extent=ext,
-                          cmap=ListedColormap(["red"]), aspect="auto")
-                ax.set_title(f"pos {p}, S {float(it['S'][sel[0]]):+.2f}\nk_lub {k:g} s, A_p "
-                             f"{100 * pitted.mean():.0f} %", fontsize=7)
-        fig.colorbar(im, ax=axes, shrink=0.6, label="damage risk max_z D (pits red)")
-        fig.suptitle("Driver: damage risk after the last block (rolling direction up)")
-        fig.savefig(path, dpi=110)
-        plt.close(fig)
+    res = load_results(run)
+    it = dict(res.items)
+    pos = sorted(set(int(p) for p in it["position"]))
+    show = [p for p in (2, 4, 6, 8, 10) if p in pos] or pos[:5]
+    ks = sorted(set(float(k) for k in it["k_lub"]))
+    fig, axes = plt.subplots(len(ks), len(show), figsize=(2.4 * len(show), 2.3 * len(ks)),
+                             squeeze=False)
+    dx, dy = res.grid.dx, res.grid.dy
+    for i, k in enumerate(ks):
+        for j, p in enumerate(show):
+            ax = axes[i, j]
+            sel = np.flatnonzero((it["position"] == p) & (it["k_lub"] == k)
+                                 & (it["patch"] == 0))
+            ax.set_xticks([])
+            ax.set_yticks([])
+            if not sel.size:
+                continue
+            m = res.maps(int(it["id"][sel[0]]), 1, "damage_risk", "pitted")
+            risk, pitted = m["damage_risk"], m["pitted"].astype(bool)
+            ext = (0, risk.shape[1] * dy * 1e6, 0, risk.shape[0] * dx * 1e6)
+            im = ax.imshow(np.clip(risk, 0, 1), origin="lower", extent=ext, cmap="viridis",
+                           vmin=0, vmax=1, aspect="auto")
+            ax.imshow(np.ma.masked_where(~pitted, pitted), origin="lower", extent=ext,
+                      cmap=ListedColormap(["red"]), aspect="auto")
+            ax.set_title(f"pos {p}, S {float(it['S'][sel[0]]):+.2f}\nk_lub {k:g} s, A_p "
+                         f"{100 * pitted.mean():.0f} %", fontsize=7)
+    fig.colorbar(im, ax=axes, shrink=0.6, label="damage risk max_z D (pits red)")
+    fig.suptitle("Driver: damage risk after the last block (rolling direction up)")
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
 
 
 def gear_table5(runs: Path, out: Path, md: list[str], suffix: str = "") -> Verdict:

@@ -1,5 +1,5 @@
 """The plot scripts' helpers (issue 20): items named by position, robust colour scales, the
-path points A–E read back from results.h5."""
+path points A–E read back from results.h5 (through micropit_hpc.io.results.load_results)."""
 
 from __future__ import annotations
 
@@ -10,6 +10,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
+
+from micropit_hpc.io.results import load_results
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -40,8 +42,17 @@ def test_shown_items_spread_over_the_study():
 
 
 def _items_file(path, roll, k_lub):
+    """The smallest results.h5 load_results accepts: items, one block of history, the grid, the
+    path points A–E."""
     with h5py.File(path, "w") as f:
+        f.attrs["complete"] = 1
         n = len(roll)
+        for i in range(n):
+            f[f"history/item_{i:05d}/cycles"] = np.array([1e6])
+            f[f"history/item_{i:05d}/Ap"] = np.array([[1.0, 2.0]])
+        for k, v in (("x", np.arange(4.0)), ("y", np.arange(3.0)), ("z", np.arange(2.0)),
+                     ("dx", 1.0), ("dy", 1.0)):
+            f[f"grid/{k}"] = v
         f["items/id"] = np.arange(n)
         f["items/position"] = np.arange(1, n + 1)
         f["items/S"] = np.linspace(-0.5, 0.5, n)
@@ -58,13 +69,11 @@ def _items_file(path, roll, k_lub):
 def test_items_are_labelled_by_position_and_what_varies(tmp_path):
     path = _items_file(tmp_path / "r.h5", [math.radians(20.0), math.radians(27.77)],
                        [0.0, 1e-11])
-    with h5py.File(path, "r") as f:
-        labels = plot_life.item_labels(f)
+    labels = plot_life.item_labels(load_results(path).items)
     assert labels == {0: "pos 1 (φ1 20.0°, S -0.50), k 0e+00 s",
                       1: "pos 2 (φ1 27.8°, S +0.50), k 1e-11 s"}
     path = _items_file(tmp_path / "d.h5", [math.nan], [0.0])      # a disc rig, one k_lub
-    with h5py.File(path, "r") as f:
-        assert plot_life.item_labels(f) == {0: "pos 1 (S -0.50)"}
+    assert plot_life.item_labels(load_results(path).items) == {0: "pos 1 (S -0.50)"}
 
 
 def test_the_flank_plot_reads_the_path_points(tmp_path):

@@ -34,11 +34,11 @@ import numpy as np
 
 from micropit_hpc import __version__
 from micropit_hpc.errors import MicropitError, collective
+from micropit_hpc.io.atomic import write_text_atomic
 from micropit_hpc.io.hdf5 import h5py_module as _h5py
 from micropit_hpc.io.outdir import fsync_path
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.parallel.failure import abort_on_error
-from micropit_hpc.report import write_text_atomic
 
 FORMAT_VERSION = 2
 #: Datasets are chunked with a Fletcher-32 checksum per chunk from format 2 on.

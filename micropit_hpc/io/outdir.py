@@ -232,7 +232,7 @@ def staging(out: Path) -> Path:
 def publish(out: Path, names: tuple[str, ...], meta: dict) -> Path:
     """Move ``names`` from :func:`staging` into ``out`` as one publication and write
     ``manifest.json`` last (see the module docstring). Returns the manifest's path."""
-    from micropit_hpc.report import write_text_atomic
+    from micropit_hpc.io.atomic import write_text_atomic
 
     out = Path(out)
     stage = out / STAGING

@@ -7,23 +7,33 @@ number), the window's coordinates in ``grid/x``, ``grid/y``, ``grid/z``, and an 
 (``results.xdmf``, :func:`write_xdmf`) beside it so that ParaView and VisIt open the maps.
 Provenance: the code's commit, the library versions and the SHA-256 of the input files
 (:mod:`micropit_hpc.io.provenance`).
+
+:func:`load_results` reads a run back (results.h5, and summary.csv beside it) into small frozen
+dataclasses (:class:`Results`), so that postprocessing scripts need neither h5py nor the
+dataset paths; a file that is not such a results file is a :class:`ResultsError`.
 """
 
 from __future__ import annotations
 
+import csv
 import datetime as _dt
-from collections.abc import Mapping, Sequence
+import json
+import math
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass, field
 from pathlib import Path
+from types import MappingProxyType
 
 import numpy as np
 
 from micropit_hpc import __version__, source_commit
 from micropit_hpc.errors import MicropitError
+from micropit_hpc.io.atomic import write_text_atomic
 from micropit_hpc.io.hdf5 import atomic_h5, h5py_module, scene_json
 from micropit_hpc.regime import block_flags
-from micropit_hpc.report import write_text_atomic
 
-__all__ = ["MAP_UNITS", "write_results", "write_summary", "write_xdmf"]
+__all__ = ["MAP_UNITS", "Grid", "MethodB", "Results", "ResultsError", "Table", "load_results",
+           "load_summary", "write_results", "write_summary", "write_xdmf"]
 
 #: Unit of each final map (``maps/item_NNNNN/bodyB/<name>``).
 MAP_UNITS = {"heights": "m", "damage": "1", "damage_risk": "1", "pitted": "1", "wear": "m",
@@ -211,3 +221,357 @@ def write_xdmf(xdmf: Path, h5: Path, nx: int, ny: int, nz: int,
     out += ["  </Domain>", "</Xdmf>", ""]
     write_text_atomic(xdmf, "\n".join(out))
     return xdmf
+
+
+# ---- reading a run back ------------------------------------------------------------------------
+
+#: Unit of each summary.csv column (engineering units, docs/outputs.md); "" for text.
+SUMMARY_UNITS = {"item": "1", "position": "1", "S": "1", "p0_GPa": "GPa", "Lambda": "1",
+                 "k_lub_s": "s", "body": "1", "cycles": "1", "Ap_pct": "%", "max_damage": "1",
+                 "wear_um": "µm", "Rq_um": "µm", "lambda_GF": "1", "S_lambda": "1",
+                 "slope_dq": "rad", "low_cycle_damage_pct": "%", "low_cycle_pits_pct": "%",
+                 "p_lim_area_pct": "%", "deep_damage_ratio": "1", "pit_depth_max_um": "µm",
+                 "flags": ""}
+#: What a results.h5 must hold for :func:`load_results` (older files may lack the rest).
+_REQUIRED_GRID = ("x", "y", "z", "dx", "dy")
+_REQUIRED_HISTORY = ("cycles", "Ap")
+
+
+class ResultsError(MicropitError):
+    """A run's results (results.h5, summary.csv) that cannot be read: the message names the file
+    and what is missing or wrong."""
+
+
+def _frozen(a: np.ndarray) -> np.ndarray:
+    a = np.asarray(a)
+    a.flags.writeable = False
+    return a
+
+
+@dataclass(frozen=True, eq=False)
+class Table(Mapping):
+    """Named arrays with their units: the columns of a table (one value per row: per item, per
+    block, per summary.csv row) or the maps of one body. Read-only; ``table["Ap"]``,
+    ``"lambda_GF" in table``, ``table.units["Ap"]``."""
+
+    columns: Mapping[str, np.ndarray]
+    units: Mapping[str, str]
+    #: where the arrays come from, for messages (``FILE:GROUP``)
+    source: str = ""
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        try:
+            return self.columns[name]
+        except KeyError:
+            raise KeyError(f"{self.source}: no {name!r} (it has "
+                           f"{', '.join(self.columns) or 'nothing'})") from None
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self.columns)
+
+    def __len__(self) -> int:
+        return len(self.columns)
+
+    @property
+    def rows(self) -> int:
+        """Length of the first axis (items, blocks or summary rows; 0 when empty)."""
+        return next((len(a) for a in self.columns.values() if a.ndim), 0)
+
+    def __repr__(self) -> str:
+        return f"Table({self.source}: {self.rows} rows; {', '.join(self.columns)})"
+
+
+@dataclass(frozen=True, eq=False)
+class Grid:
+    """The window (``grid/``) [m]: ``x`` along rolling (the first index of every map), ``y``
+    across it (the second), ``z`` the depths of the damage layers (the first index of
+    ``damage``), the spacings ``dx``, ``dy``."""
+
+    x: np.ndarray
+    y: np.ndarray
+    z: np.ndarray
+    dx: float
+    dy: float
+    unit: str = "m"
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(n_x, n_y) of every surface map."""
+        return (len(self.x), len(self.y))
+
+
+@dataclass(frozen=True, eq=False)
+class MethodB:
+    """ISO/TS 6336-22 Method B along the path (``iso6336_22/``): ``roll_angle`` [rad] and
+    ``lambda_GF`` at each point, its minimum and where, the flank R_a [m], λ_GFT, W_W, λ_GFP
+    and S_λ (NaN without the oil's rating) and the lines ``micropit contact`` prints."""
+
+    roll_angle: np.ndarray
+    lambda_GF: np.ndarray
+    lambda_GF_min: float = math.nan
+    roll_angle_min: float = math.nan
+    Ra: float = math.nan
+    lambda_GFT: float = math.nan
+    W_W: float = math.nan
+    lambda_GFP: float = math.nan
+    S_lambda: float = math.nan
+    summary: str = ""
+
+
+@dataclass(frozen=True, eq=False)
+class Results:
+    """One ``micropit run`` as written in results.h5 (docs/outputs.md), SI units.
+
+    ``attrs``: the root attributes (str, int, float); the common ones also as properties.
+    ``items``: one row per work item (``items/``: ``id``, ``position``, ``S``, ``p0``, ...).
+    ``history``: item id → its per-block table (``history/item_NNNNN/``: ``cycles``, ``Ap``
+    (blocks × 2 bodies), ..., ``flags`` as strings). ``grid``: the window's coordinates.
+    ``iso6336_22``: Method B along the path (None in files without it). ``path_points``: roll
+    angle [rad] of the points A–E of a gear's path of contact (empty for a disc rig).
+    ``map_names``: item id → the names of its final maps (``body1/heights``, ...), read by
+    :meth:`maps`. ``summary``: summary.csv beside the file (None when it is not there).
+    """
+
+    file: Path
+    attrs: Mapping[str, object]
+    items: Table
+    history: Mapping[int, Table]
+    grid: Grid
+    iso6336_22: MethodB | None = None
+    path_points: Mapping[str, float] = field(default_factory=dict)
+    map_names: Mapping[int, tuple[str, ...]] = field(default_factory=dict)
+    summary: Table | None = None
+
+    def __repr__(self) -> str:
+        blocks = max((h.rows for h in self.history.values()), default=0)
+        return (f"Results({self.file}: {self.items.rows} items, {blocks} blocks, status "
+                f"{self.status or '?'})")
+
+    @property
+    def folder(self) -> Path:
+        return self.file.parent
+
+    @property
+    def ids(self) -> list[int]:
+        """The work-item ids, in the file's order."""
+        return [int(i) for i in self.items["id"]]
+
+    @property
+    def status(self) -> str:
+        """``done``, or ``stopped`` for the partial results of a run that stopped early."""
+        return str(self.attrs.get("status", ""))
+
+    @property
+    def scene(self) -> dict:
+        """The scene file as read (the ``scene`` attribute, parsed from JSON)."""
+        return json.loads(str(self.attrs.get("scene", "{}")))
+
+    @property
+    def scene_file(self) -> str:
+        return str(self.attrs.get("scene_file", ""))
+
+    @property
+    def source_commit(self) -> str:
+        return str(self.attrs.get("source_commit", ""))
+
+    @property
+    def library_versions(self) -> dict:
+        return json.loads(str(self.attrs.get("library_versions", "{}")))
+
+    @property
+    def input_sha256(self) -> dict:
+        return json.loads(str(self.attrs.get("input_sha256", "{}")))
+
+    @property
+    def window_problems(self) -> tuple[str, ...]:
+        """Why the window does not hold the synthetic surfaces; empty when it does."""
+        text = str(self.attrs.get("window_problems", "none"))
+        return () if text == "none" else tuple(text.split("; "))
+
+    def maps(self, item: int, body: int, *names: str) -> Table:
+        """The final maps of ``body`` (1 or 2) of work item ``item`` (``heights``, ``damage``,
+        ``damage_risk``, ``pitted``, ``wear``, ``pit_depth``; ``names`` to read only some),
+        read from the file now: (n_x, n_y), ``damage`` (N_z, n_x, n_y)."""
+        have = [n.split("/", 1)[1] for n in self.map_names.get(int(item), ())
+                if n.startswith(f"body{body}/")]
+        where = f"maps/item_{int(item):05d}/body{body}"
+        if not have:
+            raise ResultsError(f"{self.file}: no maps of item {item}, body {body} ({where})")
+        missing = [n for n in names if n not in have]
+        if missing:
+            raise ResultsError(f"{self.file}: {where} has no {', '.join(missing)} (it has "
+                               f"{', '.join(have)})")
+        with _open(self.file) as f:
+            cols, units = {}, {}
+            for n in names or have:
+                cols[n], units[n] = _dataset(f, f"{where}/{n}", self.file)
+        return Table(MappingProxyType(cols), MappingProxyType(units), f"{self.file}:{where}")
+
+
+def _open(path: Path):
+    h5py = h5py_module()
+    if not h5py.is_hdf5(path):
+        raise ResultsError(f"{path}: not an HDF5 file, so not the results.h5 of `micropit run`")
+    try:
+        return h5py.File(path, "r")
+    except OSError as e:
+        raise ResultsError(f"{path}: cannot be opened as HDF5 (truncated or damaged?): {e}"
+                           ) from None
+
+
+def _dataset(f, name: str, path: Path) -> tuple[np.ndarray, str]:
+    """The array and unit of dataset ``name``, or a ResultsError naming it."""
+    h5py = h5py_module()
+    obj = f.get(name)
+    if not isinstance(obj, h5py.Dataset):
+        raise ResultsError(f"{path}: dataset {name} is missing" if obj is None else
+                           f"{path}: {name} is not a dataset")
+    try:
+        if h5py.check_string_dtype(obj.dtype) is not None:
+            data = np.array(obj.asstr()[()], dtype=str)
+        else:
+            data = obj[()]
+        unit = obj.attrs.get("unit", "")
+    except (OSError, ValueError, KeyError, RuntimeError) as e:
+        raise ResultsError(f"{path}: dataset {name} cannot be read (damaged file?): {e}"
+                           ) from None
+    return _frozen(data), _plain(unit)
+
+
+def _plain(v):
+    """An attribute as a plain Python value (str, int, float, or an array)."""
+    if isinstance(v, bytes):
+        return v.decode("utf-8", "replace")
+    if isinstance(v, np.generic):
+        return v.item()
+    if isinstance(v, np.ndarray):
+        return _frozen(v)
+    return v
+
+
+def _group_table(f, name: str, path: Path, required: Sequence[str] = ()) -> Table:
+    """Every dataset of group ``name`` (one level), all with the same first axis."""
+    h5py = h5py_module()
+    g = f.get(name)
+    if not isinstance(g, h5py.Group):
+        raise ResultsError(f"{path}: group {name}/ is missing")
+    for r in required:
+        if r not in g:
+            raise ResultsError(f"{path}: dataset {name}/{r} is missing")
+    cols, units = {}, {}
+    for key, obj in g.items():
+        if isinstance(obj, h5py.Dataset):
+            cols[key], units[key] = _dataset(f, f"{name}/{key}", path)
+    lengths = {k: (a.shape[0] if a.ndim else None) for k, a in cols.items()}
+    n = lengths.get(required[0]) if required else next(iter(lengths.values()), None)
+    odd = [k for k, v in lengths.items() if v != n]
+    if odd:
+        raise ResultsError(f"{path}: {name}/{odd[0]} has {lengths[odd[0]]} rows, "
+                           f"{name}/{required[0] if required else next(iter(cols))} {n}")
+    return Table(MappingProxyType(cols), MappingProxyType(units), f"{path}:{name}")
+
+
+def _kind_hint(f) -> str:
+    if "format_version" in f.attrs and "state" in f:
+        return " (it looks like a checkpoint, DIR/checkpoints/ckpt_*.h5)"
+    if "pressure" in f and "stress_body1" in f:
+        return " (it looks like a snapshot of `micropit snapshot`)"
+    return ""
+
+
+def load_summary(path_or_folder: str | Path) -> Table:
+    """summary.csv of a run (a file, or the run's folder) as a :class:`Table`: one row per
+    item, body and block end; integer, float or text columns as written, units
+    :data:`SUMMARY_UNITS` (engineering: µm, GPa, %)."""
+    path = Path(path_or_folder)
+    if path.is_dir():
+        path = path / "summary.csv"
+    try:
+        with open(path, newline="") as fh:
+            rows = list(csv.reader(fh))
+    except OSError as e:
+        raise ResultsError(f"{path}: cannot be read: {e.strerror or e}") from None
+    except (UnicodeDecodeError, csv.Error) as e:
+        raise ResultsError(f"{path}: not a summary.csv of `micropit run`: {e}") from None
+    if not rows or "item" not in rows[0] or "Ap_pct" not in rows[0]:
+        raise ResultsError(f"{path}: not a summary.csv of `micropit run` (no header with item "
+                           "and Ap_pct)")
+    header, body = rows[0], rows[1:]
+    bad = next((k for k, r in enumerate(body) if len(r) != len(header)), None)
+    if bad is not None:
+        raise ResultsError(f"{path}: line {bad + 2} has {len(body[bad])} cells, the header "
+                           f"{len(header)} (truncated?)")
+    cols = {}
+    for j, name in enumerate(header):
+        cells = [r[j] for r in body]
+        for kind in (int, float):
+            try:
+                cols[name] = _frozen(np.array([kind(c) for c in cells], dtype=kind))
+                break
+            except ValueError:
+                continue
+        else:
+            cols[name] = _frozen(np.array(cells, dtype=str))
+    units = {n: SUMMARY_UNITS.get(n, "") for n in header}
+    return Table(MappingProxyType(cols), MappingProxyType(units), str(path))
+
+
+def load_results(path_or_folder: str | Path) -> Results:
+    """Read a run's results.h5 (the file, or the ``--out`` folder of ``micropit run``) and the
+    summary.csv beside it. Items, histories, grid and Method B are read now; the maps when
+    asked (:meth:`Results.maps`). :class:`ResultsError` when the file is missing, not HDF5,
+    truncated, not a results file of ``micropit run``, or lacks a dataset."""
+    path = Path(path_or_folder)
+    if path.is_dir():
+        if not (path / "results.h5").exists():
+            raise ResultsError(f"{path}: no results.h5 in this folder (the --out folder of "
+                               "`micropit run SCENE --out DIR` holds one once a run finished)")
+        path = path / "results.h5"
+    elif not path.exists():
+        raise ResultsError(f"{path}: no such file or folder")
+    with _open(path) as f:
+        try:
+            attrs, items, history, grid, iso, points, names = _read(f, path)
+        except (OSError, KeyError, ValueError, RuntimeError) as e:
+            raise ResultsError(f"{path}: cannot be read (truncated or damaged?): {e}") from None
+    summary_csv = path.with_name("summary.csv")
+    summary = load_summary(summary_csv) if summary_csv.is_file() else None
+    return Results(path, MappingProxyType(attrs), items, MappingProxyType(history), grid, iso,
+                   MappingProxyType(points), MappingProxyType(names), summary)
+
+
+def _read(f, path: Path) -> tuple:
+    """What :func:`load_results` reads now from the open file ``f``."""
+    h5py = h5py_module()
+    if not all(g in f for g in ("items", "history", "grid")):
+        raise ResultsError(f"{path}: not the results.h5 of `micropit run` (no items/, "
+                           f"history/ and grid/ groups){_kind_hint(f)}")
+    attrs = {k: _plain(v) for k, v in f.attrs.items()}
+    if attrs.get("complete") != 1:
+        raise ResultsError(f"{path}: incomplete (no attribute complete = 1: its writer "
+                           "stopped before the end)")
+    items = _group_table(f, "items", path, ("id",))
+    history = {int(i): _group_table(f, f"history/item_{int(i):05d}", path, _REQUIRED_HISTORY)
+               for i in items["id"]}
+    g = {k: _dataset(f, f"grid/{k}", path)[0] for k in _REQUIRED_GRID}
+    grid = Grid(g["x"], g["y"], g["z"], float(g["dx"]), float(g["dy"]))
+    iso = None
+    if "iso6336_22" in f:
+        a = f["iso6336_22"].attrs
+        iso = MethodB(_dataset(f, "iso6336_22/roll_angle", path)[0],
+                      _dataset(f, "iso6336_22/lambda_GF", path)[0],
+                      **{k: (str if k == "summary" else float)(_plain(a[k]))
+                         for k in ("lambda_GF_min", "roll_angle_min", "Ra", "lambda_GFT", "W_W",
+                                   "lambda_GFP", "S_lambda", "summary") if k in a})
+    points = {}
+    if "path" in f:
+        a = f["path"].attrs
+        points = {k: float(a[f"{k}_roll_angle"]) for k in "ABCDE" if f"{k}_roll_angle" in a}
+    names: dict[int, tuple[str, ...]] = {}
+    for key, grp in (f["maps"].items() if "maps" in f else ()):
+        if key.startswith("item_") and key[5:].isdigit() and isinstance(grp, h5py.Group):
+            found: list[str] = []
+            grp.visititems(lambda n, o, found=found: found.append(n)
+                           if isinstance(o, h5py.Dataset) else None)
+            names[int(key[5:])] = tuple(sorted(found))
+    return attrs, items, history, grid, iso, points, names
