@@ -36,9 +36,10 @@ COLUMNS = ("case", "integration", "k_lub_s", "block_M", "n", "cycles_M", "Ap1_pc
 
 def run_one(case: str, integration: str, k_lub: float, block: float, n: int) -> dict:
     """One item to its life; returns a row of :data:`COLUMNS`."""
+    from micropit_hpc.plan import WorkItem
     from micropit_hpc.regime import block_flags
     from micropit_hpc.scene import scene_from_dict
-    from micropit_hpc.study import ItemRun, WorkItem
+    from micropit_hpc.study import ItemRun
 
     name, position, cycles = CASES[case]
     doc = tomllib.loads((ROOT / "scenes" / f"{name}.toml").read_text())

@@ -16,8 +16,9 @@ import time
 import tomllib
 
 from micropit_hpc import source_commit
+from micropit_hpc.plan import WorkItem
 from micropit_hpc.scene import scene_from_dict
-from micropit_hpc.study import ItemRun, WorkItem
+from micropit_hpc.study import ItemRun
 
 
 def main() -> None:

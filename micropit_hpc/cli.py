@@ -49,10 +49,10 @@ def _cmd_snapshot(args: argparse.Namespace) -> int:
     import time
     from pathlib import Path
 
-    from micropit_hpc.conditions import contact_study
     from micropit_hpc.cycle import PositionCycle
     from micropit_hpc.io.snapshot import write_snapshot
     from micropit_hpc.parallel import world
+    from micropit_hpc.plan import make_plan
     from micropit_hpc.plots import snapshot_figure
     from micropit_hpc.scene import load_scene
 
@@ -61,8 +61,8 @@ def _cmd_snapshot(args: argparse.Namespace) -> int:
     if comm.rank != 0:      # one step of one position is a one-rank job: the others wait
         return 0
     t0 = time.perf_counter()
-    study = contact_study(scene)
-    cycle = PositionCycle(study, args.position)
+    plan = make_plan(scene, life=False)
+    cycle = PositionCycle(plan.study, args.position, window=plan.window)
     if args.step is None:
         args.step = (cycle.steps + 1) // 2
     if args.step > cycle.steps:
@@ -163,9 +163,9 @@ def _run(args, comm, control, log, t0) -> int:
     from micropit_hpc.io import outdir
     from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
     from micropit_hpc.parallel.petsc import options_left_warning
+    from micropit_hpc.plan import make_plan
     from micropit_hpc.runner import RunOptions
     from micropit_hpc.scene import load_scene
-    from micropit_hpc.study import life_blocks
 
     if args.force and not args.restart:
         raise collective(MicropitError("--force only applies with --restart (it accepts a "
@@ -181,12 +181,13 @@ def _run(args, comm, control, log, t0) -> int:
         max_wall_s=control.max_wall_s, stop_file=control.stop_file,
         keep=_int_option("micropit_checkpoint_keep", 3),
         checkpoint_every=_int_option("micropit_checkpoint_every", 1))
-    n_blocks = life_blocks(scene)
+    plan = make_plan(scene, opts.positions)     # every check, on every rank alike
+    n_blocks = plan.blocks
     estimate.check(scene, comm, args.ranks_per_item, opts.positions, n_blocks, log,
                    ignore_memory=args.ignore_memory_estimate)
     lock = outdir.prepare(out, comm, restart=args.restart, overwrite=args.overwrite, log=log)
     try:
-        status = _run_locked(args, comm, control, log, t0, scene, opts, n_blocks)
+        status = _run_locked(args, comm, control, log, t0, plan, opts)
     finally:
         if lock is not None:
             lock.release()
@@ -194,29 +195,28 @@ def _run(args, comm, control, log, t0) -> int:
     return EXIT_CHECKPOINTED if status == "stopped" else 0
 
 
-def _run_locked(args, comm, control, log, t0, scene, opts, n_blocks) -> str:
+def _run_locked(args, comm, control, log, t0, plan, opts) -> str:
     """The run itself, in a locked output folder; returns "done" or "stopped"."""
     import time
 
-    from micropit_hpc.conditions import contact_study
     from micropit_hpc.io import outdir
     from micropit_hpc.io.results import write_results, write_summary
-    from micropit_hpc.iso6336_22 import method_b
     from micropit_hpc.parallel.petsc import stage
     from micropit_hpc.progress import NullProgress, Progress, block_fraction, inside_note
     from micropit_hpc.regime import block_warning
     from micropit_hpc.runner import run_study
-    from micropit_hpc.study import SUMMARY_COLUMNS, block_cycles, summary_rows
+    from micropit_hpc.study import SUMMARY_COLUMNS, summary_rows
 
     rank0 = comm.rank == 0
     out = opts.out
-    last = block_cycles(scene, n_blocks)
+    scene, n_blocks = plan.scene, plan.blocks
+    last = plan.block_cycles(n_blocks)
     shorter = (f", the last of {last / 1e6:g} M" if last != scene.life.block else "")
     for w in scene.warnings:
         log(f"warning: {w}")
     if scene.lubricant.derived:
         log(scene.lubricant.derived)
-    for line in method_b(contact_study(scene)).lines():
+    for line in plan.method_b.lines():
         log(line)
     log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item, "
         f"{n_blocks} blocks of {scene.life.block / 1e6:g} M cycles{shorter} to "
@@ -270,7 +270,7 @@ def _run_locked(args, comm, control, log, t0, scene, opts, n_blocks) -> str:
                               f"max A_p body 1 {ap:.3g} %")
 
     outcome = run_study(scene, opts, comm, log, on_block, on_start, control=control,
-                        on_progress=on_progress)
+                        on_progress=on_progress, plan=plan)
     if progress[0] is not None:
         progress[0].close()
     study = outcome.study
@@ -346,8 +346,8 @@ def _cmd_check_env(args: argparse.Namespace) -> int:
 
 
 def _cmd_scene(args: argparse.Namespace) -> int:
+    from micropit_hpc.plan import make_plan
     from micropit_hpc.scene import keys_markdown, load_scene
-    from micropit_hpc.study import life_blocks
 
     if args.help_keys:
         print(keys_markdown())
@@ -356,7 +356,7 @@ def _cmd_scene(args: argparse.Namespace) -> int:
         raise MicropitError("give a scene file to check, or --help-keys for the key reference")
     for path in args.scene:
         scene = load_scene(path)
-        life_blocks(scene)   # a life of too many blocks is refused here already
+        plan = make_plan(scene)   # every check `micropit run` makes before its first block
         if scene.gear is not None:
             pos = scene.positions
             n = pos.count if pos.kind == "count" else len(pos.values)
@@ -364,10 +364,14 @@ def _cmd_scene(args: argparse.Namespace) -> int:
                    f"{n} positions given by {pos.kind.replace('_', ' ')}"
         else:
             what = f"disc rig, {len(scene.disc.slide_roll)} slide-roll ratios"
-        print(f"{path}: valid scene '{scene.name}': {what}")
+        print(f"{path}: valid scene '{scene.name}': {what}; {len(plan.items)} work items, "
+              f"{plan.blocks} blocks, contact levels {', '.join(sorted(set(plan.levels)))}")
         if scene.lubricant.derived:
             print(f"  {scene.lubricant.derived}")
         _warn_scene(scene)
+        for p in plan.window_problems:
+            print(f"micropit: warning: {scene.source}: the window does not hold the roughness: "
+                  f"{p}", file=sys.stderr, flush=True)
     return 0
 
 

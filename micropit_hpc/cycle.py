@@ -18,17 +18,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from micropit_hpc.conditions import ContactConditions, ContactStudy
+from micropit_hpc.conditions import ContactStudy
 from micropit_hpc.errors import MicropitError, SceneError
-from micropit_hpc.hertz import line_contact
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
 from micropit_hpc.lubrication.mixed import MixedLubrication, MixedParameters, restore_mean
 from micropit_hpc.lubrication.rheology import calibrated_prefactor
-from micropit_hpc.mechanics.halfspace import HalfSpaceStress, depth_layers
+from micropit_hpc.mechanics.halfspace import HalfSpaceStress
 from micropit_hpc.mechanics.hertz_field import EllipticalContactField, line_contact_stress
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.parallel.slab import Slab
-from micropit_hpc.scene import Body, Scene, check_mixed_inputs
+from micropit_hpc.plan import Window, choose_level
+from micropit_hpc.scene import Body, Scene
 from micropit_hpc.spectral import Grid, fourier_shift, rfft_plan, to_material_frame
 from micropit_hpc.surfaces import (
     Topography,
@@ -37,30 +37,6 @@ from micropit_hpc.surfaces import (
     read_topography,
     self_affine_surface,
 )
-
-LEVELS = ("smooth", "dry", "mixed")
-
-
-def reference_half_width(study: ContactStudy) -> float:
-    """b_ref: the Hertz semi-width at the pitch point of a gear pair (same window at every
-    position, as in the paper), or of the first contact of a disc rig."""
-    scene = study.scene
-    if study.mesh is None:
-        return study.conditions[0].b
-    mesh, gear = study.mesh, scene.gear
-    rho_p = mesh.C
-    X = float(mesh.load_share(np.array([rho_p]), gear.load_sharing, gear.accuracy_grade)[0])
-    w = X * gear.torque / (gear.geometry.base_radius1 * gear.geometry.facewidth)
-    b, _ = line_contact(w, float(mesh.reduced_radius(np.array([rho_p]))[0]), study.E_star)
-    return float(b)
-
-
-def window_grid(scene: Scene, b_ref: float) -> Grid:
-    """The window grid of a scene ([window] keys; lengths default to 2 b_ref)."""
-    w = scene.window
-    lx = w.lx if w.lx is not None else 2.0 * b_ref
-    ly = w.ly if w.ly is not None else lx
-    return Grid(w.nx, w.ny if w.ny is not None else w.nx, lx, ly)
 
 
 def body_surface(scene: Scene, body: int, grid: Grid, patch: int = 0) -> Topography:
@@ -103,19 +79,6 @@ def body_surface(scene: Scene, body: int, grid: Grid, patch: int = 0) -> Topogra
     return topo
 
 
-def choose_level(scene: Scene, c: ContactConditions, rough: bool) -> str:
-    """The contact level of a position: the scene's, or for ``auto`` smooth when the surfaces
-    are smooth or Λ ≥ auto_lambda (full film) and mixed otherwise (MODEL.md §0, §4.1)."""
-    model = scene.lubrication.model
-    if model == "auto":
-        model = "smooth" if (not rough or c.Lambda >= scene.lubrication.auto_lambda) else "mixed"
-    if model == "mixed":
-        check_mixed_inputs(scene, 'lubrication.model = "mixed"' if scene.lubrication.model ==
-                           "mixed" else f"Λ = {c.Lambda:.3g} < lubrication.auto_lambda makes "
-                           '"auto" choose "mixed"')
-    return model
-
-
 @dataclass(frozen=True)
 class StepFields:
     """Contact at one time step (SI, window frame). ``traction1``/``traction2`` are the
@@ -152,15 +115,16 @@ class PositionCycle:
 
     def __init__(self, study: ContactStudy, position: int,
                  surfaces: tuple[Topography, Topography] | None = None,
-                 steps: int | None = None, comm=None):
+                 steps: int | None = None, comm=None, window: Window | None = None):
         scene = study.scene
         if not 1 <= position <= len(study.conditions):
             raise MicropitError(f"{scene.source}: position {position} does not exist (the "
                                 f"scene has positions 1 to {len(study.conditions)})")
         self.study, self.scene, self.position = study, scene, position
         c = self.cond = study.conditions[position - 1]
-        self.b_ref = reference_half_width(study)
-        self.grid = g = window_grid(scene, self.b_ref)
+        self.window = Window.of(study) if window is None else window
+        self.b_ref = self.window.b_ref
+        self.grid = g = self.window.grid
         if surfaces is None:
             surfaces = (body_surface(scene, 1, g), body_surface(scene, 2, g))
         self._fft = rfft_plan(g.shape)
@@ -183,8 +147,7 @@ class PositionCycle:
             self.mixed = MixedLubrication(
                 g, geometry="line" if c.geometry == "line" else "elliptical", load=c.load,
                 R=c.R, b=c.b, u1=c.u1, u2=c.u2, h_mean=c.hc, E_prime=study.E_prime, params=prm)
-        st = scene.stress
-        self.z = depth_layers(st.layers, st.depth * self.b_ref, st.spacing)
+        self.z = self.window.z
         self.slab = Slab(SerialComm() if comm is None else comm, g, self.z.size)
         self._micro: dict[int, HalfSpaceStress] = {}
         self._macro_ellipse: dict[int, EllipticalContactField] = {}

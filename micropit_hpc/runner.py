@@ -48,6 +48,7 @@ from micropit_hpc.io.hdf5 import h5py_module, scene_json
 from micropit_hpc.life import BlockRecord
 from micropit_hpc.parallel.control import StopControl
 from micropit_hpc.parallel.petsc import stage
+from micropit_hpc.plan import Plan
 from micropit_hpc.scene import Scene
 from micropit_hpc.study import Study
 
@@ -119,7 +120,7 @@ class RunOutcome:
 
 
 def _field_specs(study: Study) -> list[FieldSpec]:
-    grid, z = study.window()
+    grid, z = study.plan.window.grid, study.plan.window.z
     shape2 = grid.shape
     specs = [FieldSpec("state", (4,), "f8"),
              FieldSpec("records", (study.blocks, len(RECORD_FIELDS)), "f8")]
@@ -342,20 +343,22 @@ def run_study(scene: Scene, opts: RunOptions, comm,
               on_block: Callable[[int, int, dict], None] | None = None,
               on_start: Callable[[int, int, Study], None] | None = None,
               control: StopControl | None = None,
-              on_progress: Callable[..., None] | None = None) -> RunOutcome:
+              on_progress: Callable[..., None] | None = None,
+              plan: Plan | None = None) -> RunOutcome:
     """Run (or resume) every work item of ``scene`` on ``comm`` (collective). ``on_start``
     is called on every rank before the first block with (blocks, blocks already done, study),
     ``on_block`` after each block with (block, blocks, records), ``on_progress`` inside
     blocks (:meth:`Study.run_block`). ``control``: the stop control to ask at each block
     boundary (default: one made here from ``opts``, closed at the end; the CLI passes its
-    own, which keeps the signals handled until the results are written)."""
+    own, which keeps the signals handled until the results are written). ``plan``: the
+    scene's checked :class:`~micropit_hpc.plan.Plan` (default: made here)."""
     rank0 = comm.rank == 0
     ckdir = Path(opts.out) / CHECKPOINT_DIR
     latest = None
     surfaces = comm.bcast(surface_files(scene) if rank0 else None, root=0) \
         if comm.size > 1 else surface_files(scene)
     with stage("setup"):
-        study = Study(scene, comm, opts.ranks_per_item, opts.positions, log)
+        study = Study(scene, comm, opts.ranks_per_item, opts.positions, log, plan=plan)
         if opts.restart:
             latest = find_latest(ckdir, comm, expect=_expected(study),
                                  on_skip=lambda e: log(f"skipped {e}") if rank0 else None)

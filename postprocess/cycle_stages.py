@@ -21,8 +21,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.life import evaluate_cycle
+from micropit_hpc.plan import WorkItem
 from micropit_hpc.scene import load_scene
-from micropit_hpc.study import ItemRun, WorkItem
+from micropit_hpc.study import ItemRun
 
 
 def main() -> int:

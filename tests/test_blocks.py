@@ -13,8 +13,8 @@ from test_run import _write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.errors import SceneError
+from micropit_hpc.plan import MAX_BLOCKS, block_cycles, life_blocks
 from micropit_hpc.scene import scene_from_dict
-from micropit_hpc.study import MAX_BLOCKS, block_cycles, life_blocks
 
 
 def scene_of(cycles_M, block_M):

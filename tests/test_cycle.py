@@ -11,9 +11,10 @@ import pytest
 from conftest import ROOT, SCENES
 
 from micropit_hpc.conditions import contact_study
-from micropit_hpc.cycle import PositionCycle, reference_half_width
+from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.errors import MicropitError, SceneError
 from micropit_hpc.mechanics.hertz_field import line_contact_stress
+from micropit_hpc.plan import reference_half_width
 from micropit_hpc.scene import load_scene
 
 SMALL = """

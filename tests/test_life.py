@@ -26,8 +26,9 @@ from micropit_hpc.life import (
     sub_block_cycles,
 )
 from micropit_hpc.pits import detach, layer_bottoms, shift_columns
+from micropit_hpc.plan import WorkItem
 from micropit_hpc.scene import scene_from_dict
-from micropit_hpc.study import ItemRun, WorkItem
+from micropit_hpc.study import ItemRun
 from micropit_hpc.wear import WearRate, archard_wear, to_material_frame
 
 

@@ -17,7 +17,7 @@ from test_run import _write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.conditions import contact_study
-from micropit_hpc.cycle import PositionCycle, window_grid
+from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.fatigue.sn import WoehlerLine
 from micropit_hpc.life import (
     BlockRecord,
@@ -27,9 +27,10 @@ from micropit_hpc.life import (
     rms_slope,
     run_block,
 )
+from micropit_hpc.plan import WorkItem, window_grid
 from micropit_hpc.regime import LIMITS, block_flags, block_warning, window_problems
 from micropit_hpc.scene import scene_from_dict
-from micropit_hpc.study import ItemRun, WorkItem
+from micropit_hpc.study import ItemRun
 
 
 @pytest.fixture(scope="module")

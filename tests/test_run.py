@@ -14,8 +14,9 @@ from test_life import tiny_doc
 
 from micropit_hpc.cli import _item_list, main
 from micropit_hpc.parallel import SerialComm
+from micropit_hpc.plan import work_items
 from micropit_hpc.scene import scene_from_dict
-from micropit_hpc.study import SUMMARY_COLUMNS, Study, work_items
+from micropit_hpc.study import SUMMARY_COLUMNS, Study
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -150,7 +150,7 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
                     d = g.create_dataset(name, data=arr, compression="gzip",
                                          compression_opts=4, shuffle=True)
                     d.attrs["unit"] = MAP_UNITS[name.split("/")[-1]]
-            grid, z = study.window()
+            grid, z = study.plan.window.grid, study.plan.window.z
             for name, value, doc in (
                     ("x", grid.x, "along rolling, first index of every map"),
                     ("y", grid.y, "across rolling, second index of every map"),
