@@ -163,7 +163,7 @@ def _run(args, comm, control, log, t0) -> int:
     from micropit_hpc.io import outdir
     from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
     from micropit_hpc.parallel.petsc import options_left_warning
-    from micropit_hpc.plan import make_plan
+    from micropit_hpc.plan import life_blocks, make_plan
     from micropit_hpc.runner import RunOptions
     from micropit_hpc.scene import load_scene
 
@@ -181,10 +181,10 @@ def _run(args, comm, control, log, t0) -> int:
         max_wall_s=control.max_wall_s, stop_file=control.stop_file,
         keep=_int_option("micropit_checkpoint_keep", 3),
         checkpoint_every=_int_option("micropit_checkpoint_every", 1))
-    plan = make_plan(scene, opts.positions)     # every check, on every rank alike
-    n_blocks = plan.blocks
+    n_blocks = life_blocks(scene)
     estimate.check(scene, comm, args.ranks_per_item, opts.positions, n_blocks, log,
                    ignore_memory=args.ignore_memory_estimate)
+    plan = make_plan(scene, opts.positions)     # every check, on every rank alike
     lock = outdir.prepare(out, comm, restart=args.restart, overwrite=args.overwrite, log=log)
     try:
         status = _run_locked(args, comm, control, log, t0, plan, opts)

@@ -26,6 +26,7 @@ from micropit_hpc.lubrication.rheology import calibrated_prefactor
 from micropit_hpc.mechanics.halfspace import HalfSpaceStress
 from micropit_hpc.mechanics.hertz_field import EllipticalContactField, line_contact_stress
 from micropit_hpc.parallel import SerialComm
+from micropit_hpc.parallel.share import from_root
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.plan import Window, choose_level
 from micropit_hpc.scene import Body, Scene
@@ -193,18 +194,7 @@ class PositionCycle:
         step's pressure); ``warm``: a dict the caller keeps for this step from one load-cycle
         evaluation to the next, whose pressures (the last evaluation's at this step) take
         precedence as warm starts and are updated (:meth:`MixedLubrication.solve`)."""
-        if self.slab.comm.size == 1:
-            return self._solve_step(step, p_init, warm)
-        fields, error = None, None
-        if self.slab.is_root:
-            try:
-                fields = self._solve_step(step, p_init, warm)
-            except MicropitError as e:
-                error = e
-        fields, error = self.slab.bcast((fields, error))
-        if error is not None:
-            raise error
-        return fields
+        return from_root(self.slab.comm, lambda: self._solve_step(step, p_init, warm))
 
     def _solve_step(self, step: int, p_init: np.ndarray | None,
                     warm: dict | None = None) -> StepFields:

@@ -21,7 +21,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from micropit_hpc.errors import MicropitError, collective
+from micropit_hpc.parallel.share import raise_agreed
 
 PROCESS_MIB = 100.0
 TRANSIENT_B_PER_POINT = 1400.0
@@ -159,10 +159,7 @@ def check(scene, comm, ranks_per_item: int, positions, blocks: int, log,
                        f"{est.items} work items): use fewer positions per job (--position), a "
                        f"smaller window, more ranks per item, more nodes, or "
                        "--ignore-memory-estimate if the estimate is wrong")
-    if comm.size > 1:
-        problem = comm.bcast(problem, root=0)
-    if problem:
-        raise collective(MicropitError(problem))
+    raise_agreed(comm, problem)
     return est
 
 

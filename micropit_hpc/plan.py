@@ -202,7 +202,11 @@ def check_surfaces(scene: Scene, grid: Grid) -> None:
     unusable file (its R_q, its size against the window) is refused here, not at the first
     block. Synthetic surfaces cannot fail and are not made here."""
     from micropit_hpc.cycle import body_surface
+    from micropit_hpc.estimate import available_memory, npy_too_large
 
+    problem = npy_too_large(scene, available_memory())
+    if problem:
+        raise SceneError("", problem)
     for i, body in ((1, scene.body1), (2, scene.body2)):
         if body.surface.kind == "file" and body.Rq > 0.0:
             body_surface(scene, i, grid)

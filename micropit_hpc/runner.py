@@ -48,6 +48,7 @@ from micropit_hpc.io.hdf5 import h5py_module, scene_json
 from micropit_hpc.life import BlockRecord
 from micropit_hpc.parallel.control import StopControl
 from micropit_hpc.parallel.petsc import stage
+from micropit_hpc.parallel.share import from_root, raise_agreed
 from micropit_hpc.plan import Plan
 from micropit_hpc.scene import Scene
 from micropit_hpc.study import Study
@@ -303,10 +304,7 @@ def _read_state(path: Path, study: Study) -> tuple[int, dict[int, list[BlockReco
                            "wrote it")
                 break
             records[it.id] = [record_from_row(r) for r in tab[:done] if np.isfinite(r[0])]
-    if study.comm.size > 1:
-        problem = study.comm.bcast(problem, root=0)
-    if problem:
-        raise collective(CheckpointError(problem))
+    raise_agreed(study.comm, problem, CheckpointError)
     return done, records
 
 
@@ -316,26 +314,19 @@ def _inspect(path: Path, study: Study, scene: Scene, force: bool,
     rank gets the verdict: CheckpointError everywhere or nowhere) and return each item's last
     block time from it (None when not all are known) for the longest-first assignment,
     with the run id the checkpoint carries."""
-    comm = study.comm
-    answer = (None, None, None)
-    if comm.rank == 0:
-        try:
-            attrs = read_attrs(path)   # verified by find_latest
-            _check_compatible(path, attrs, study, scene, force, surfaces)
-            done = int(attrs["block"])
-            if done > study.blocks:
-                raise CheckpointError(f"{path} is block {done}, beyond this scene's "
-                                      f"{study.blocks} blocks (life.cycles_M / life.block_M)")
-            with h5py_module().File(path, "r") as f:
-                wall = f["records"][:, done - 1, RECORD_FIELDS.index("wall_s")]
-            costs = [float(c) for c in wall] if np.all(np.isfinite(wall)) else None
-            answer = (None, costs, attrs.get("run_id"))
-        except CheckpointError as e:
-            answer = (str(e), None, None)
-    problem, costs, run_id = comm.bcast(answer, root=0) if comm.size > 1 else answer
-    if problem:
-        raise collective(CheckpointError(problem))
-    return run_id, costs
+    def inspect() -> tuple[str | None, list[float] | None]:
+        attrs = read_attrs(path)   # verified by find_latest
+        _check_compatible(path, attrs, study, scene, force, surfaces)
+        done = int(attrs["block"])
+        if done > study.blocks:
+            raise CheckpointError(f"{path} is block {done}, beyond this scene's "
+                                  f"{study.blocks} blocks (life.cycles_M / life.block_M)")
+        with h5py_module().File(path, "r") as f:
+            wall = f["records"][:, done - 1, RECORD_FIELDS.index("wall_s")]
+        costs = [float(c) for c in wall] if np.all(np.isfinite(wall)) else None
+        return attrs.get("run_id"), costs
+
+    return from_root(study.comm, inspect, CheckpointError, world=True)
 
 
 def run_study(scene: Scene, opts: RunOptions, comm,
@@ -355,8 +346,7 @@ def run_study(scene: Scene, opts: RunOptions, comm,
     rank0 = comm.rank == 0
     ckdir = Path(opts.out) / CHECKPOINT_DIR
     latest = None
-    surfaces = comm.bcast(surface_files(scene) if rank0 else None, root=0) \
-        if comm.size > 1 else surface_files(scene)
+    surfaces = from_root(comm, lambda: surface_files(scene), CheckpointError, world=True)
     with stage("setup"):
         study = Study(scene, comm, opts.ranks_per_item, opts.positions, log, plan=plan)
         if opts.restart:
@@ -368,8 +358,7 @@ def run_study(scene: Scene, opts: RunOptions, comm,
         run_id, costs = (_inspect(latest, study, scene, opts.force, surfaces)
                          if latest is not None else (None, None))
         if run_id is None:
-            run_id = comm.bcast(uuid.uuid4().hex if rank0 else None, root=0) \
-                if comm.size > 1 else uuid.uuid4().hex
+            run_id = from_root(comm, lambda: uuid.uuid4().hex)
         if costs is not None:
             study.assign(costs)
         study.setup()

@@ -9,6 +9,7 @@ from test_life import tiny_doc
 
 from micropit_hpc.errors import SceneError
 from micropit_hpc.parallel import SerialComm
+from micropit_hpc.plan import make_plan
 from micropit_hpc.scene import scene_from_dict
 from micropit_hpc.spectral import Grid
 from micropit_hpc.study import Study
@@ -55,9 +56,9 @@ def test_a_scene_spacing_that_overrides_the_files_is_said(tmp_path):
 def test_a_map_smaller_than_the_window_names_the_keys_in_um(tmp_path):
     doc, _ = _doc(tmp_path, 0.4)
     doc["window"]["length_x_um"] = 80.0
-    study = Study(scene_from_dict(doc, str(tmp_path / "s.toml")), SerialComm())
-    with pytest.raises(SceneError) as e:
-        study.setup()
+    scene = scene_from_dict(doc, str(tmp_path / "s.toml"))
+    with pytest.raises(SceneError) as e:     # the plan reads the map: `micropit scene` says it
+        make_plan(scene)
     text = str(e.value)
     assert "body1.surface: " in text
     assert "covers 64 µm x 64 µm, smaller than the simulation window 80 µm x 64 µm" in text

@@ -39,6 +39,7 @@ from micropit_hpc.io.hdf5 import h5py_module as _h5py
 from micropit_hpc.io.outdir import fsync_path
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.parallel.failure import abort_on_error
+from micropit_hpc.parallel.share import from_root, raise_agreed
 
 FORMAT_VERSION = 2
 #: Datasets are chunked with a Fletcher-32 checksum per chunk from format 2 on.
@@ -356,10 +357,9 @@ def write_checkpoint(directory: str | Path, comm, block: int, n_items: int,
             _prune(directory, int(block), int(keep))
         except OSError as e:
             problem = f"{final}: {e}"
-    problem = comm.bcast(problem, root=0)
-    if problem:
-        raise collective(CheckpointError(
-            f"checkpoint block {block} written but not published: {problem}"))
+    raise_agreed(comm, None if problem is None else
+                 f"checkpoint block {block} written but not published: {problem}",
+                 CheckpointError)
     return final
 
 
@@ -499,20 +499,19 @@ def find_latest(directory: str | Path, comm=None,
     (with ``expect``; ``on_skip`` is told why), i.e. falls back to the previous good one.
     With ``comm``, rank 0 scans and broadcasts the answer (collective).
     """
-    if comm is not None and comm.size > 1:
-        answer = None
-        if comm.rank == 0:
-            try:
-                found = _scan(Path(directory), on_skip, expect)
-                answer = ("ok", None if found is None else str(found))
-            except Exception as e:  # every rank must leave the bcast
-                answer = ("error", f"{type(e).__name__}: {e}")
-        kind, value = comm.bcast(answer, root=0)
-        if kind == "error":
-            raise collective(CheckpointError(
-                f"{directory}: scanning for checkpoints failed on rank 0: {value}"))
-        return None if value is None else Path(value)
-    return _scan(Path(directory), on_skip, expect)
+    if comm is None or comm.size == 1:
+        return _scan(Path(directory), on_skip, expect)
+
+    def scan() -> str | None:
+        try:
+            found = _scan(Path(directory), on_skip, expect)
+        except Exception as e:  # every rank must leave the broadcast
+            raise CheckpointError(f"{directory}: scanning for checkpoints failed on rank 0: "
+                                  f"{type(e).__name__}: {e}") from None
+        return None if found is None else str(found)
+
+    value = from_root(comm, scan, CheckpointError, world=True)
+    return None if value is None else Path(value)
 
 
 def _latest_pointer(directory: Path) -> int | None:

@@ -28,7 +28,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from micropit_hpc.errors import MicropitError, collective
+from micropit_hpc.errors import MicropitError
+from micropit_hpc.parallel.share import raise_agreed
 
 LOCK = ".micropit.lock"
 MANIFEST = "manifest.json"
@@ -206,10 +207,7 @@ def prepare(out: Path, comm, *, restart: bool, overwrite: bool,
                 lock.release()
                 lock = None
             problem = str(e) if isinstance(e, MicropitError) else f"--out {out}: {e}"
-    if comm.size > 1:
-        problem = comm.bcast(problem, root=0)
-    if problem:
-        raise collective(MicropitError(problem))
+    raise_agreed(comm, problem)
     return lock
 
 
