@@ -1,11 +1,23 @@
 """Scene files: TOML in engineering units -> typed, validated dataclasses in SI units.
 
 A scene describes one study: a spur gear pair (``[gear]`` + ``[positions]``) or a disc rig
-(``[disc]``), the two bodies, the lubricant and the film model. Every key is declared in
-:data:`SECTIONS` (type, unit, default, allowed range, meaning); ``micropit scene --help-keys``
-and docs/scenes.md are generated from it. Bad input raises :class:`SceneError` naming the file,
-the key, the value and what is allowed.
+(``[disc]``), the two bodies, the lubricant and the film model.
+
+The dataclasses are the schema. Every key is declared once, as a field of the frozen dataclass
+that holds its SI value (:class:`WindowSpec`, :class:`LifeSpec`, …), or of a small table class
+(:class:`GearTable`, :class:`DiscTable`, …) where the file's table is not the object the rest of
+the code uses: :func:`~micropit_hpc.schema.setting` gives the key's name in the file, type, unit,
+SI factor, default in file units, allowed range and meaning, and makes the field's dataclass
+default that default in SI. :data:`SECTIONS` is derived from the classes
+(:func:`~micropit_hpc.schema.section_of`); the reading, ``micropit scene --help-keys`` and
+docs/scenes.md come from it. Objects computed from a table (:class:`GearSpec` with its
+:class:`GearGeometry`, :class:`PositionSpec`, :class:`DiscSpec`) declare no keys, nor do the
+fields that are not keys (``Lubricant.derived``, ``Body.surface``, ``Scene.source``, …). Bad
+input raises :class:`SceneError` naming the file, the key, the value and what is allowed.
 """
+
+# setting(...) returns the dataclasses.field of a key (a default and metadata), not a shared value
+# ruff: noqa: RUF009
 
 from __future__ import annotations
 
@@ -26,7 +38,14 @@ from micropit_hpc.gear import (
     MeshingError,
     zero_backlash_centre_distance,
 )
-from micropit_hpc.schema import Key, Section, check_unknown, keys_reference, read_section
+from micropit_hpc.schema import (
+    Section,
+    check_unknown,
+    keys_reference,
+    read_section,
+    section_of,
+    setting,
+)
 
 DEG = math.pi / 180.0
 MM = 1e-3
@@ -35,530 +54,357 @@ GPA = 1e9
 RPM = 2.0 * math.pi / 60.0
 
 # --------------------------------------------------------------------------------------------
-# key declarations
+# the settings: each scene key is declared once, as a field of the dataclass that holds it
 # --------------------------------------------------------------------------------------------
 TOP_LEVEL = ("study", "gear", "disc", "body1", "body2", "lubricant", "film", "hertz", "positions",
              "window", "lubrication", "stress", "fatigue", "wear", "life")
 
-_STUDY = Section("study", """
-What the study is called, and the study dimensions beyond positions and wear coefficients. The
-work items of a study are positions × `wear.k_lub_s` × `roughness_scale` × `patches`.
-""", (
-    Key("name", "name", "str", "Name of the study, shown in reports and results. Default: the "
-        "file name without .toml.", default=None),
-    Key("description", "description", "str", "Free text: where the numbers come from.",
-        default=""),
-    Key("roughness_scale", "roughness_scale", "floats", "Factors on both bodies' roughness "
-        "(R_q and heights), one set of work items each; Λ scales as 1/factor (the paper's "
-        "Table 9).", default=[1.0], lo=0, hi=100, lo_open=True),
-    Key("patches", "patches", "int", "Independent synthetic roughness patches (seeds) per "
-        "position; patch p > 1 draws its own streams from `window.seed`.", default=1, lo=1,
-        hi=100000),
-))
+SURFACE_KINDS = ("gaussian", "self_affine", "file", "smooth")
+LUBRICATION_MODELS = ("auto", "smooth", "dry", "mixed")
+COUNTING = ("sliding", "rainflow")
+#: Time integration of the life (micropit_hpc.life): the adaptive split or the paper's blocks.
+INTEGRATIONS = ("adaptive", "paper")
 
-_GEAR = Section("gear", """
-An external involute spur gear pair (MODEL.md §2.1). Gear 1 is the pinion (body 1) and drives;
-gear 2 is the wheel (body 2). Give either `[gear]` with `[positions]`, or `[disc]`.
-""", (
-    Key("module_mm", "module", "float", "Normal module m.", "mm", MM, lo=0.01, hi=1000),
-    Key("pressure_angle_deg", "pressure_angle", "float", "Reference pressure angle α.", "deg",
-        DEG, lo=0, hi=45, lo_open=True, hi_open=True),
-    Key("centre_distance_mm", "centre_distance", "float",
+
+@dataclass(frozen=True)
+class StudyTable:
+    """The ``[study]`` table (its name, description and dimensions go to :class:`Scene`)."""
+
+    name: str | None = setting(
+        "name", "str", "Name of the study, shown in reports and results. Default: the "
+        "file name without .toml.", default=None)
+    description: str = setting(
+        "description", "str", "Free text: where the numbers come from.",
+        default="")
+    roughness_scale: tuple[float, ...] = setting(
+        "roughness_scale", "floats", "Factors on both bodies' roughness "
+        "(R_q and heights), one set of work items each; Λ scales as 1/factor (the paper's "
+        "Table 9).", default=[1.0], lo=0, hi=100, lo_open=True)
+    patches: int = setting(
+        "patches", "int", "Independent synthetic roughness patches (seeds) per "
+        "position; patch p > 1 draws its own streams from `window.seed`.", default=1, lo=1,
+        hi=100000)
+
+
+@dataclass(frozen=True)
+class GearTable:
+    """The ``[gear]`` table; :func:`_read_gear` builds the :class:`GearSpec` from it."""
+
+    module: float = setting(
+        "module_mm", "float", "Normal module m.", "mm", MM, lo=0.01, hi=1000)
+    pressure_angle: float = setting(
+        "pressure_angle_deg", "float", "Reference pressure angle α.", "deg",
+        DEG, lo=0, hi=45, lo_open=True, hi_open=True)
+    centre_distance: float | None = setting(
+        "centre_distance_mm", "float",
         "Operating centre distance a. Default: the zero-backlash centre distance of the profile "
-        "shifts (ISO 21771).", "mm", MM, default=None, lo=0, hi=1e5, lo_open=True),
-    Key("facewidth_mm", "facewidth", "float", "Common facewidth b_w carrying the load.", "mm",
-        MM, lo=0.001, hi=1e5),
-    Key("torque_Nm", "torque", "float", "Torque on gear 1 (the driver); the normal load per "
-        "unit facewidth is w = X T1 / (r_b1 b_w).", "N·m", 1.0, lo=0, hi=1e9, lo_open=True),
-    Key("speed_rpm", "speed", "float", "Rotational speed of gear 1.", "rpm", RPM, lo=0,
-        hi=1e6, lo_open=True),
-    Key("load_sharing", "load_sharing", "str", "Load-sharing model X along the path: `linear` "
+        "shifts (ISO 21771).", "mm", MM, default=None, lo=0, hi=1e5, lo_open=True)
+    facewidth: float = setting(
+        "facewidth_mm", "float", "Common facewidth b_w carrying the load.", "mm",
+        MM, lo=0.001, hi=1e5)
+    torque: float = setting(
+        "torque_Nm", "float", "Torque on gear 1 (the driver); the normal load per "
+        "unit facewidth is w = X T1 / (r_b1 b_w).", "N·m", 1.0, lo=0, hi=1e9, lo_open=True)
+    speed: float = setting(
+        "speed_rpm", "float", "Rotational speed of gear 1.", "rpm", RPM, lo=0,
+        hi=1e6, lo_open=True)
+    load_sharing: str = setting(
+        "load_sharing", "str", "Load-sharing model X along the path: `linear` "
         "(tip relief for smooth meshing: 0→1 over A–B, 1 over B–D, 1→0 over D–E), "
         "`iso_unmodified` (ISO/TS 6336-22 Method B ramps (Q−2)/15 + t/3 for unmodified "
-        "profiles), `none` (X = 1).", default="linear", choices=LOAD_SHARING),
-    Key("accuracy_grade", "accuracy_grade", "int", "ISO 1328 accuracy grade Q, used only by "
+        "profiles), `none` (X = 1).", default="linear", choices=LOAD_SHARING)
+    accuracy_grade: int = setting(
+        "accuracy_grade", "int", "ISO 1328 accuracy grade Q, used only by "
         "`load_sharing = \"iso_unmodified\"`; grades finer than 7 are taken as 7 (below it the "
-        "ISO ramps would lose load).", default=7, lo=0, hi=12),
-    Key("slide_roll_imposed", "slide_roll_imposed", "float", "|S| imposed at every position, "
+        "ISO ramps would lose load).", default=7, lo=0, hi=12)
+    slide_roll_imposed: float | None = setting(
+        "slide_roll_imposed", "float", "|S| imposed at every position, "
         "with the sign of the mesh's own S (0 at the pitch point; see `pitch_snap_deg` for a "
         "pitch point given by a rounded roll angle); ū, the load and the film are kept, "
         "u1 = ū(1 + S/2), u2 = ū(1 − S/2). The paper's "
         "Table 5 (S = ±0.044) separates the effect of the pressure from that of the "
-        "sliding. Default: the kinematic S of the mesh.", default=None, lo=0, hi=2, hi_open=True),
-    Key("pitch_snap_deg", "pitch_snap", "float", "Positions whose roll angle of gear 1 lies "
+        "sliding. Default: the kinematic S of the mesh.", default=None, lo=0, hi=2, hi_open=True)
+    pitch_snap: float = setting(
+        "pitch_snap_deg", "float", "Positions whose roll angle of gear 1 lies "
         "within this of the pitch point C are evaluated at C exactly (S = 0). The paper's "
         "Table 3 prints roll angles to 0.01° and calls its position 6 (27.77°) the pitch "
         "point, where the exact C is 27.774°: S = −0.0003 there, and since the asperity "
         "stresses exceed the S–N line's one-cycle strength that alone pits 11 % of the "
         "flank (docs/validation/findings.md). Default 0: positions as given.", "deg", DEG,
-        default=0.0, lo=0, hi=1),
-    Key("material_factor_WW", "material_factor_ww", "float", "Material factor W_W of "
+        default=0.0, lo=0, hi=1)
+    material_factor_ww: float = setting(
+        "material_factor_WW", "float", "Material factor W_W of "
         "ISO/TS 6336-22 Method B in λ_GFP = 1.4 W_W λ_GFT (1.0 for case-carburised steel, the "
         "test gears' material; other values from the standard's table for the flanks' "
-        "material and heat treatment).", default=1.0, lo=0, hi=5, lo_open=True),
-), children=("pinion", "wheel"))
+        "material and heat treatment).", default=1.0, lo=0, hi=5, lo_open=True)
 
 
-def _wheel_section(path: str, which: str) -> Section:
-    return Section(path, f"Gear {which} of the pair.", (
-        Key("teeth", "teeth", "int", "Number of teeth z.", lo=5, hi=100000),
-        Key("profile_shift", "profile_shift", "float", "Profile shift coefficient x.",
-            default=0.0, lo=-1.5, hi=1.5),
-        Key("tip_diameter_mm", "tip_diameter", "float", "Tip diameter d_a. Default: the "
-            "standard d + 2m(1 + x).", "mm", MM, default=None, lo=0, hi=1e6, lo_open=True),
-        Key("root_diameter_mm", "root_diameter", "float", "Root diameter d_f, used only to "
-            "check tip-root clearance. Default: d − 2m(1.25 − x).", "mm", MM, default=None, lo=0,
-            hi=1e6, lo_open=True),
-    ))
+@dataclass(frozen=True)
+class GearWheelTable:
+    """The ``[gear.pinion]`` and ``[gear.wheel]`` tables (into :class:`GearGeometry`)."""
+
+    teeth: int = setting(
+        "teeth", "int", "Number of teeth z.", lo=5, hi=100000)
+    profile_shift: float = setting(
+        "profile_shift", "float", "Profile shift coefficient x.",
+        default=0.0, lo=-1.5, hi=1.5)
+    tip_diameter: float | None = setting(
+        "tip_diameter_mm", "float", "Tip diameter d_a. Default: the "
+        "standard d + 2m(1 + x).", "mm", MM, default=None, lo=0, hi=1e6, lo_open=True)
+    root_diameter: float | None = setting(
+        "root_diameter_mm", "float", "Root diameter d_f, used only to "
+        "check tip-root clearance. Default: d − 2m(1.25 − x).", "mm", MM, default=None, lo=0,
+        hi=1e6, lo_open=True)
 
 
-_PINION = _wheel_section("gear.pinion", "1 (the pinion, body 1, the driver)")
-_WHEEL = _wheel_section("gear.wheel", "2 (the wheel, body 2, driven)")
+@dataclass(frozen=True)
+class PositionsTable:
+    """The ``[positions]`` table (exactly one key given); gives the :class:`PositionSpec`."""
+
+    roll_angle: tuple[float, ...] | None = setting(
+        "roll_angle_deg", "floats", "Roll angles of gear 1, φ1 = ρ1/r_b1.", "deg",
+        DEG, default=None)
+    radial_position: tuple[float, ...] | None = setting(
+        "radial_pos_mm", "floats", "Tooth-centre radial positions on gear 1, "
+        "y = r cos ψ(r) (how the paper locates points).", "mm", MM, default=None)
+    modules_below_tip: tuple[float, ...] | None = setting(
+        "modules_below_tip", "floats", "Tooth-centre radial positions as "
+        "k modules below the tip radius, y = r_a1 − k m (the paper's Table 7).", "modules", 1.0,
+        default=None, lo=0)
+    count: int | None = setting(
+        "n", "int", "n points at the centres of n equal intervals from A to E.",
+        default=None, lo=1, hi=100000)
 
 
-def _body_section(path: str, which: str) -> Section:
-    return Section(path, f"Material and roughness of body {which}.", (
-        Key("E_GPa", "E", "float", "Young's modulus.", "GPa", GPA, default=210.0, lo=0,
-            hi=1e4, lo_open=True),
-        Key("nu", "nu", "float", "Poisson's ratio.", default=0.3, lo=-1, hi=0.5, lo_open=True,
-            hi_open=True),
-        Key("Rq_um", "Rq", "float", "RMS roughness R_q of the surface.", "µm", UM, lo=0, hi=1e4),
-        Key("Ra_um", "Ra", "float", "Arithmetic mean roughness R_a of the flank, for the "
-            "ISO/TS 6336-22 Method B λ_GF of `micropit contact`. Default: √(2/π) R_q, the "
-            "R_a of a Gaussian height distribution (`micropit run` uses the R_a of the "
-            "simulated surfaces).", "µm", UM, default=None, lo=0, hi=1e4),
-        Key("hardness_GPa", "hardness", "float", "Hardness H: the pressure cap p_lim = "
-            "lubrication.p_lim_hardness × the smaller H of the two bodies, and Archard wear.",
-            "GPa", GPA, default=7.0, lo=0, hi=1e3, lo_open=True),
-    ), children=("surface",))
+@dataclass(frozen=True)
+class DiscTable:
+    """The ``[disc]`` table; :func:`_read_disc` builds the :class:`DiscSpec` from it."""
+
+    p0: float | None = setting(
+        "p0_GPa", "float", "Maximum Hertz pressure (give this, `load_N` or "
+        "`load_N_per_m`).", "GPa", GPA, default=None, lo=0, hi=100, lo_open=True)
+    load: float | None = setting(
+        "load_N", "float", "Normal load of an elliptical contact.", "N", 1.0,
+        default=None, lo=0, hi=1e9, lo_open=True)
+    load_per_length: float | None = setting(
+        "load_N_per_m", "float", "Normal load per unit length of a line "
+        "contact.", "N/m", 1.0, default=None, lo=0, hi=1e12, lo_open=True)
+    u_mean: float = setting(
+        "u_mean_m_s", "float", "Entrainment speed ū = (u1 + u2)/2.", "m/s", 1.0, lo=0,
+        hi=1e3, lo_open=True)
+    slide_roll: tuple[float, ...] | None = setting(
+        "slide_roll", "floats", "Slide-roll ratios S = (u1 − u2)/ū, one contact "
+        "each; |S| = 2 is pure sliding.", default=None, lo=-2, hi=2)
+    radius1_x: float = setting(
+        "radius1_x_mm", "float", "Radius of curvature of body 1 in the rolling "
+        "direction.", "mm", MM, lo=0, hi=1e7, lo_open=True)
+    radius2_x: float = setting(
+        "radius2_x_mm", "float", "Radius of curvature of body 2 in the rolling "
+        "direction.", "mm", MM, lo=0, hi=1e7, lo_open=True)
+    radius1_y: float | None = setting(
+        "radius1_y_mm", "float", "Radius of curvature of body 1 across the "
+        "rolling direction (crown). Default: straight.", "mm", MM, default=None, lo=0,
+        hi=1e7, lo_open=True)
+    radius2_y: float | None = setting(
+        "radius2_y_mm", "float", "Radius of curvature of body 2 across the "
+        "rolling direction. Default: straight.", "mm", MM, default=None, lo=0, hi=1e7,
+        lo_open=True)
 
 
-SURFACE_KINDS = ("gaussian", "self_affine", "file", "smooth")
+@dataclass(frozen=True)
+class HertzTable:
+    """The ``[hertz]`` table (its override goes to ``Scene.hertz_E_star``)."""
 
-
-def _surface_section(path: str, which: str) -> Section:
-    return Section(path, f"""
-Topography of body {which} on the simulation window (MODEL.md §3). Synthetic surfaces are
-generated from `window.seed` with R_q = `Rq_um` of the body; a measured map is read, detrended,
-made periodic, resampled to the window grid and checked against `Rq_um`.
-""", (
-        Key("kind", "kind", "str", "`gaussian` (Gaussian random field, exponential or Gaussian "
-            "ACF), `self_affine` (fractal PSD between cut-offs), `file` (a measured map), "
-            "`smooth` (no roughness).", default="gaussian", choices=SURFACE_KINDS),
-        Key("corr_x_um", "corr_x", "float", "Correlation length β_x along rolling (lag where the "
-            "ACF falls to 0.1), for `gaussian`.", "µm", UM, default=30.0, lo=0, hi=1e6,
-            lo_open=True),
-        Key("corr_y_um", "corr_y", "float", "Correlation length β_y across rolling. Ground gears "
-            "and discs have their lay across the rolling direction: β_y ≫ β_x.", "µm", UM,
-            default=300.0, lo=0, hi=1e9, lo_open=True),
-        Key("acf", "acf", "str", "Autocorrelation function of a `gaussian` surface.",
-            default="exponential", choices=("exponential", "gaussian")),
-        Key("hurst", "hurst", "float", "Hurst exponent H of a `self_affine` surface.",
-            default=0.8, lo=0, hi=1, lo_open=True, hi_open=True),
-        Key("long_cutoff_um", "long_cutoff", "float", "Long-wavelength roll-off of a "
-            "`self_affine` surface. Default: the window length.", "µm", UM, default=None, lo=0,
-            hi=1e6, lo_open=True),
-        Key("short_cutoff_um", "short_cutoff", "float", "Short-wavelength cut-off of a "
-            "`self_affine` surface. Default: 4 grid spacings.", "µm", UM, default=None, lo=0,
-            hi=1e6, lo_open=True),
-        Key("file", "file", "str", "Measured height map (`.npy`, `.npz`, text matrix, HDF5, or "
-            "any format of the optional SurfaceTopography package such as `.x3p`); relative "
-            "to the scene file.", default=None),
-        Key("dataset", "dataset", "str", "HDF5 dataset (or instrument channel) to read.",
-            default=None),
-        Key("spacing_um", "spacing", "floats", "Grid spacing [Δx, Δy] of a map that does not "
-            "store it (`.npy`, text, instrument files without sizes). A file's own spacing "
-            "(`.npz`, HDF5, `.x3p`, …) is used unless this is given; the run log says which "
-            "was used and what it overrode.", "µm", UM, default=None, lo=0, lo_open=True),
-        Key("height_unit", "height_unit", "str", "Unit of the heights stored in the file.",
-            default="m", choices=("m", "mm", "um", "nm")),
-        Key("detrend", "detrend", "str", "Detrending of a measured map (`quadratic` also "
-            "removes the flank's curvature).", default="plane",
-            choices=("none", "mean", "plane", "quadratic")),
-        Key("nan_policy", "nan_policy", "str", "Missing points (NaN) in a measured map: refuse, "
-            "fill with the mean, or interpolate from the neighbours.", default="error",
-            choices=("error", "fill_mean", "interpolate")),
-        Key("periodise", "periodise", "str", "How a measured map is made to tile without a "
-            "step: `tukey` taper of the edges (the deviations are then scaled back to the "
-            "map's R_q, which the taper alone lowers by ~14 %), `mirror` (even reflection), "
-            "`none`.",
-            default="tukey", choices=("none", "tukey", "mirror")),
-        Key("rescale", "rescale", "bool", "Scale a measured map to the body's `Rq_um` (by "
-            "default its R_q must agree with `Rq_um` within 5 %).", default=False),
-    ))
-
-
-_SURFACE1 = _surface_section("body1.surface", "1")
-_SURFACE2 = _surface_section("body2.surface", "2")
-
-
-_BODY1 = _body_section("body1", "1 (the pinion or the test roller)")
-_BODY2 = _body_section("body2", "2 (the wheel or the counterface)")
-
-_LUBRICANT = Section("lubricant", """
-Lubricant at the contact inlet temperature. Required unless `[film] hc_um` gives the film.
-""", (
-    Key("eta0_mPas", "eta0", "float", "Dynamic viscosity η0 at ambient pressure.", "mPa·s",
-        1e-3, default=None, lo=0, hi=1e9, lo_open=True),
-    Key("alpha_pv_1_per_GPa", "alpha_pv", "float", "Barus pressure-viscosity coefficient α "
-        "(the EHL film formulas scale with a power of α: zero is not allowed).", "1/GPa", 1e-9,
-        default=None, lo=0, hi=1e3, lo_open=True),
-    Key("beta_1_per_K", "beta", "float", "Temperature-viscosity coefficient β, for "
-        "`thermal = \"wilson_sheu\"`.", "1/K", 1.0, default=None, lo=0, hi=10, lo_open=True),
-    Key("conductivity_W_per_mK", "conductivity", "float", "Thermal conductivity k_f of the oil, "
-        "for `thermal = \"wilson_sheu\"`.", "W/(m·K)", 1.0, default=None, lo=0, hi=1e3,
-        lo_open=True),
-    Key("eyring_stress_MPa", "tau0", "float", "Eyring stress τ0 of the non-Newtonian film, "
-        "needed by the `mixed` lubrication model.", "MPa", 1e6, default=None, lo=0, hi=1e4,
-        lo_open=True),
-    Key("iso_vg", "iso_vg", "int", "ISO 3448 viscosity grade (ν at 40 °C in mm²/s: 2, 3, 5, "
-        "7, 10, 15, 22, 32, 46, 68, 100, 150, 220, 320, 460, 680, 1000, 1500, 2200, 3200). "
-        "With `nu100_cSt` and `temperature_C` it gives η0 (ASTM D341 Walther) and α (Wooster "
-        "1957) when `eta0_mPas` / `alpha_pv_1_per_GPa` are not given (micropit_hpc/oil.py).",
-        default=None, lo=2, hi=3200),
-    Key("nu40_cSt", "nu40", "float", "Kinematic viscosity at 40 °C (instead of `iso_vg`, "
-        "e.g. from the oil's datasheet).", "mm²/s", 1e-6, default=None, lo=2, hi=1e5),
-    Key("nu100_cSt", "nu100", "float", "Kinematic viscosity at 100 °C (the oil's datasheet), "
-        "needed with `iso_vg` or `nu40_cSt`.", "mm²/s", 1e-6, default=None, lo=1, hi=1e4),
-    Key("temperature_C", "temperature_C", "float", "Oil temperature at the contact inlet, "
-        "for the viscosity by grade.", "°C", 1.0, default=None, lo=-40, hi=250),
-    Key("density_15C_kg_m3", "rho15", "float", "Density at 15 °C, for η0 = ν ρ by grade "
-        "(ρ falls 0.07 %/K).", "kg/m³", 1.0, default=880.0, lo=600, hi=2000),
-    Key("micropitting_load_stage", "load_stage", "int", "Failure load stage SKS of the oil in "
-        "the FVA 54 micropitting test GF-C/8.3/90 (or /60, `micropitting_test_temperature_C`), "
-        "from the oil's datasheet: gives λ_GFT and the ISO/TS 6336-22 Method B permissible "
-        "λ_GFP (micropit_hpc/iso6336_22.py).", default=None, lo=5, hi=10),
-    Key("micropitting_test_temperature_C", "test_temperature_C", "float", "Oil temperature "
-        "of that test (90 for GF-C/8.3/90, 60 for GF-C/8.3/60).", "°C", 1.0, default=90.0,
-        lo=20, hi=150),
-    Key("lambda_GFT", "lambda_gft", "float", "The specific film thickness λ_GFT of the test "
-        "gears at the failure load stage, when known directly (a KISSsoft or datasheet value); "
-        "wins over `micropitting_load_stage`.", default=None, lo=0, hi=100, lo_open=True),
-))
-
-_WINDOW = Section("window", """
-The computational window of one load cycle (MODEL.md §4): a periodic patch travelling with the
-entrainment speed from the inlet to the outlet of the contact in `steps` time steps. The same
-window and roughness patch are used at every position of a study.
-""", (
-    Key("n", "nx", "int", "Grid points along rolling (5-smooth sizes such as 64, 128, 256 are "
-        "fastest; any size works).", default=128, lo=8, hi=8192),
-    Key("ny", "ny", "int", "Grid points across rolling. Default: `n`.", default=None, lo=2,
-        hi=8192),
-    Key("length_x_um", "lx", "float", "Window length along rolling. Default: 2 b_ref, twice "
-        "the Hertz semi-width at the pitch point (a gear) or of the contact (a disc rig).",
-        "µm", UM, default=None, lo=0, hi=1e6, lo_open=True),
-    Key("length_y_um", "ly", "float", "Window length across rolling. Default: `length_x_um`.",
-        "µm", UM, default=None, lo=0, hi=1e6, lo_open=True),
-    Key("steps", "steps", "int", "Time steps per load cycle m (the paper used 20).",
-        default=20, lo=1, hi=100000),
-    Key("seed", "seed", "int", "Seed of the synthetic roughness (body 1 and body 2 draw "
-        "independent streams from it).", default=1, lo=0, hi=2**63 - 1),
-))
-
-LUBRICATION_MODELS = ("auto", "smooth", "dry", "mixed")
-
-_LUBRICATION = Section("lubrication", """
-Pressure and clearance of the rough surfaces at each time step (MODEL.md §4.1).
-""", (
-    Key("model", "model", "str", "`smooth` (no roughness: p = p̄), `dry` (elastic–perfectly-"
-        "plastic contact of the roughness; the fluid carries nothing), `mixed` (the fast "
-        "mixed-lubrication model), `auto` (`smooth` for Λ ≥ `auto_lambda` or smooth surfaces, "
-        "else `mixed`).", default="auto", choices=LUBRICATION_MODELS),
-    Key("auto_lambda", "auto_lambda", "float", "Λ from which `auto` treats the contact as "
-        "full-film and smooth.", default=3.0, lo=0, hi=1e3, lo_open=True),
-    Key("mu_boundary", "mu_bl", "float", "Friction coefficient on solid contact.", default=0.11,
-        lo=0, hi=2),
-    Key("mu_ehl", "mu_ehl", "float", "Friction coefficient of the fluid film.", default=0.05,
-        lo=0, hi=2),
-    Key("h_min_um", "h_min", "float", "Clearance at or below which a point is in solid "
-        "contact.", "µm", UM, default=0.0, lo=0, hi=100),
-    Key("p_lim_hardness", "p_lim_hardness", "float", "Pressure cap as a fraction of the "
-        "smaller hardness: p_lim = this × H.", default=0.6, lo=0, hi=10, lo_open=True),
-    Key("amplitude_prefactor", "prefactor", "float", "Prefactor c_nn of the sliding-corrected "
-        "wavelength parameter ∇_nn = c_nn ∇ ((1+S_i)/2)^(0.1+0.5K). Default: calibrated to the "
-        "pure-rolling case of Venner & Lubrecht (A_d/A_i = 0.739), 1.304; the printed value "
-        "is 0.8.", default=None, lo=0, hi=100),
-    Key("fluid_share", "fluid_share", "str", "`scaled`: the fluid flattens the roughness in "
-        "proportion to the load it carries, 1 − φ (a vanishing film then tends to the dry "
-        "solution); `full`: always the full-film amplitude reduction.", default="scaled",
-        choices=("scaled", "full")),
-    Key("combine", "combine", "str", "`contact`: the dry contact acts on the lubricated "
-        "clearance; `max_amplitude`: keep per Fourier mode the larger clearance amplitude of "
-        "the dry and the lubricated solutions (MODEL.md §4.1 step 4 as printed; for "
-        "comparison).", default="contact", choices=("contact", "max_amplitude")),
-    Key("tolerance", "tol", "float", "Relative residual at which the contact solver stops.",
-        default=1e-8, lo=1e-14, hi=1e-2),
-    Key("max_iterations", "max_iter", "int", "Iteration limit of one contact solve.",
-        default=5000, lo=10, hi=10**7),
-    Key("film_tolerance", "film_tol", "float", "Relative tolerance of the flow balance that "
-        "fixes the solid load fraction φ.", default=1e-4, lo=1e-12, hi=0.1),
-))
-
-_STRESS = Section("stress", "Subsurface stress layers (MODEL.md §4.2).", (
-    Key("layers", "layers", "int", "Depth layers N_z from the surface to `depth_b`.",
-        default=15, lo=2, hi=1000),
-    Key("depth_b", "depth", "float", "Deepest layer z_max as a multiple of the reference "
-        "semi-width b_ref.", default=0.25, lo=0, hi=10, lo_open=True),
-    Key("spacing", "spacing", "str", "Layer spacing: `quadratic` z_k = z_max (k/(N_z−1))², "
-        "dense near the surface, or `uniform`.", default="quadratic",
-        choices=("quadratic", "uniform")),
-))
-
-COUNTING = ("sliding", "rainflow")
-#: Time integration of the life (micropit_hpc.life): the adaptive split or the paper's blocks.
-INTEGRATIONS = ("adaptive", "paper")
-
-_FATIGUE = Section("fatigue", """
-Dang Van stress, S–N line and cycle counting (MODEL.md §4.3–§4.4). A material point fails, and
-the material above it detaches as a micropit, when its Miner damage reaches 1.
-""", (
-    Key("counting", "counting", "str", "`sliding`: one macro cycle (the smooth Hertz path) plus "
-        "n_μ = 2b|u1 − u2|/(u_i λ_c) micro-cycles of the rough path per load cycle, λ_c the "
-        "counterface's mean peak spacing; `rainflow`: rainflow-count τ̂ + α σ_H of the rough "
-        "path (time steps raised so that the slip per step ≤ λ_c/4).", default="sliding",
-        choices=COUNTING),
-    Key("woehler_A_MPa", "A", "float", "Slope A of σ_f = A ln N + B (σ_f = √3 τ_DV); negative.",
-        "MPa", 1e6, default=-40.0, lo=-1e5, hi=0, hi_open=True),
-    Key("woehler_B_MPa", "B", "float", "Intercept B of the S–N line.", "MPa", 1e6,
-        default=1600.0, lo=0, hi=1e6, lo_open=True),
-    Key("alpha_dv", "alpha", "float", "Dang Van hydrostatic sensitivity α_DV. Default "
-        "3(1/√3 − ½) = 0.232.", default=None, lo=0, hi=10),
-    Key("macro_samples", "macro_samples", "int", "Samples of the smooth macro path through "
-        "the contact (x from −3b to 3b, plus the unloaded state).", default=241, lo=8,
-        hi=100000),
-    Key("peak_spacing_min_cells", "peak_spacing_min_cells", "float", "[choice] Wavelengths "
-        "shorter than this many grid spacings are left out of the spectral moments that give "
-        "λ_c = 2π√(m2/m4): they are not resolved asperities but the grid-scale texture the "
-        "local wear and pit updates leave, which m4 (∝ k⁴) would otherwise count as peaks "
-        "(λ_c fell from 33 to 2.6 cells after 3 M cycles of wear, docs/life.md). 2 keeps every "
-        "resolved wavelength (down to Nyquist).", default=4.0, lo=2, hi=1e4),
-    Key("n_min", "n_min", "float", "The fewest cycles the S–N line's data cover: below them "
-        "the line is extrapolated (it predicts failure within one cycle at τ = B/√3, below "
-        "the shear yield). The run reports the share of damage and new pits from N < n_min "
-        "and warns above 10 %.", "cycles", 1.0, default=1e4, lo=1, hi=1e12),
-    Key("low_cycle", "low_cycle", "str", "Below n_min: `extrapolate` the line (the paper) or "
-        "`cap` the life at N = n_min (a sensitivity run, docs/life.md).",
-        default="extrapolate", choices=LOW_CYCLE),
-))
-
-_WEAR = Section("wear", """
-Local mild wear, Archard's law with a dimensional coefficient (MODEL.md §4.6):
-Δh_i = ½ (|u_s|/H_i) (1/m) Σ_t k p per load cycle, k = f_w k_lub on solid contact and k_lub on
-the fluid film.
-""", (
-    Key("k_lub_s", "k_lub", "floats", "Wear coefficients k_lub, one set of work items each "
-        "(the paper: 0, 1e-11, 5e-11 s).", "s", 1.0, default=[0.0], lo=0, hi=1e-3),
-    Key("solid_factor", "f_w", "float", "f_w: the factor on k_lub where the contact is solid.",
-        default=10.0, lo=0, hi=1e6),
-))
-
-_LIFE = Section("life", """
-The life simulation (MODEL.md §5): blocks of ΔN load cycles, each evaluated on the current
-surfaces, with the adaptive split of a block.
-""", (
-    Key("cycles_M", "cycles", "float", "Load cycles to simulate, in millions.", "Mcycles", 1e6,
-        default=3.0, lo=0, hi=1e6, lo_open=True),
-    Key("block_M", "block", "float", "Block ΔN between surface updates and checkpoints, in "
-        "millions (the paper: 1).", "Mcycles", 1e6, default=1.0, lo=0, hi=1e6, lo_open=True),
-    Key("max_wear_fraction", "max_wear_fraction", "float", "Split a block if its wear would "
-        "change the shape of a body's surface by more than this fraction of its initial R_q "
-        "anywhere (the wear depth less its mean over the intact columns: a uniform removal "
-        "needs no split).", default=0.1,
-        lo=0, hi=100, lo_open=True),
-    Key("max_damage_step", "max_damage_step", "float", "Split a block if it would raise the "
-        "maximum damage of the intact material by more than this.", default=0.25, lo=0,
-        hi=1e9, lo_open=True),
-    Key("max_pit_step", "max_pit_step", "float", "Split a block if it would newly pit more "
-        "than this share of the window's columns (resolves the cascade of pits: a pit passes "
-        "its load to its neighbours).", default=0.01, lo=0, hi=1, lo_open=True),
-    Key("max_splits", "max_splits", "int", "At most this many sub-blocks per block (the "
-        "smallest sub-block is ΔN/max_splits). With 4 the running-in of Table 9 at k_lub = 1e-11 s "
-        "is not resolved (A_p 5.4 % after 1 M cycles against 2.9 % converged, docs/life.md).",
-        default=64, lo=1, hi=100000),
-    Key("pit_contact", "pit_contact", "str", "How a micropit enters the next contact "
-        "solutions [choice]. `unloaded`: the pit's floor is never reached, so its columns "
-        "carry no pressure and no traction; the contact, film balance and peak spacing are "
-        "solved on the surface around it (the heights, R_q and wear outputs still drop by "
-        "the pit depth); `geometric`: the pitted heights enter the clearance as a step "
-        "(MODEL.md §4.5 read literally; a one-cell step of microns is outside what the "
-        "small-slope half-space and the linearised micro-EHL represent and sets off a "
-        "cascade of failures around every pit, docs/life.md).", default="unloaded",
-        choices=("unloaded", "geometric")),
-    Key("wear_integration", "wear_integration", "str", "How the wear of a sub-block is "
-        "integrated [choice]. `relaxed`: the solid-contact part of the Archard rate decays as "
-        "the wear relieves the pressure of each contact spot (lowering a spot by δ lowers its "
-        "pressure by δ/K₀, K₀ the self-compliance of a grid cell), integrated exactly over "
-        "the sub-block; the film part stays explicit; `explicit`: n·Δh, MODEL.md §4.6 as "
-        "written, which digs contact spots many R_q deep when the sub-block is much longer "
-        "than the few thousand cycles their wear takes to relieve them (docs/life.md).",
-        default="relaxed", choices=("relaxed", "explicit")),
-    Key("integration", "integration", "str", "Time integration of the life [decision]. "
-        "`adaptive`: blocks split until damage, pits and wear are resolved in time (the "
-        "limits above); `paper`: the paper's scheme, one evaluation per block of ΔN on the "
-        "block's starting surfaces, damage and wear applied over the whole block, then the "
-        "pit check. In `paper` the wear–fatigue competition depends on block_M "
-        "(docs/life.md, \"Two time integrations\").", default="adaptive",
-        choices=INTEGRATIONS),
-))
-
-_FILM = Section("film", "Central film thickness of the smooth contact (MODEL.md §2.4).", (
-    Key("model", "model", "str", "`DH61` (line, Dowson–Higginson 1961, ISO/TS 6336-22), `DH66` "
-        "(line), `HD77c` (elliptical, Hamrock–Dowson central); `auto` picks DH61 for line and "
-        "HD77c for elliptical contacts.", default="auto", choices=("auto", *FILM_MODELS)),
-    Key("thermal", "thermal", "str", "Inlet shear-heating factor φ_T: `none` (isothermal, "
-        "reproduces the paper) or `wilson_sheu`.", default="none", choices=THERMAL_MODELS),
-    Key("hc_um", "hc", "float", "Central film thickness given directly (e.g. measured); "
-        "replaces the formula and the thermal factor.", "µm", UM, default=None, lo=0,
-        hi=1e4, lo_open=True),
-    Key("lambda_roughness", "lambda_roughness", "str", "Roughness in Λ = h_c/R_q: `composite` "
-        "√(R_q1² + R_q2²), or one body's R_q (`body2`: the counterface only, as the paper's MPR "
-        "tests define Λ).", default="composite", choices=("composite", "body1", "body2")),
-))
-
-_HERTZ = Section("hertz", "Overrides of the smooth Hertz contact (MODEL.md §2.2, §2.5).", (
-    Key("E_star_GPa", "E_star", "float", "Contact modulus E* used in the Hertz formulas only "
+    E_star: float | None = setting(
+        "E_star_GPa", "float", "Contact modulus E* used in the Hertz formulas only "
         "(the film keeps the materials' E'). Default: E'/2 from the bodies. The paper's Tables "
         "3 and 7 use 210 (Young's modulus in place of E*); see MODEL.md §2.5.", "GPa", GPA,
-        default=None, lo=0, hi=1e4, lo_open=True),
-))
-
-_POSITIONS = Section("positions", """
-Where along the path of contact of a gear pair to evaluate; give exactly one key. Points must lie
-on the loaded path: from A to E, end points excluded when the load sharing is `linear` (they carry
-no load).
-""", (
-    Key("roll_angle_deg", "roll_angle", "floats", "Roll angles of gear 1, φ1 = ρ1/r_b1.", "deg",
-        DEG, default=None),
-    Key("radial_pos_mm", "radial_position", "floats", "Tooth-centre radial positions on gear 1, "
-        "y = r cos ψ(r) (how the paper locates points).", "mm", MM, default=None),
-    Key("modules_below_tip", "modules_below_tip", "floats", "Tooth-centre radial positions as "
-        "k modules below the tip radius, y = r_a1 − k m (the paper's Table 7).", "modules", 1.0,
-        default=None, lo=0),
-    Key("n", "count", "int", "n points at the centres of n equal intervals from A to E.",
-        default=None, lo=1, hi=100000),
-))
-
-_DISC = Section("disc", """
-A disc rig (e.g. the MPR triple-disc rig): two bodies with given radii of curvature, run at a
-given entrainment speed and a list of slide-roll ratios, one contact per ratio. Body 1 is the
-test roller. Without `radius*_y_mm` the contact is a line contact.
-""", (
-    Key("p0_GPa", "p0", "float", "Maximum Hertz pressure (give this, `load_N` or "
-        "`load_N_per_m`).", "GPa", GPA, default=None, lo=0, hi=100, lo_open=True),
-    Key("load_N", "load", "float", "Normal load of an elliptical contact.", "N", 1.0,
-        default=None, lo=0, hi=1e9, lo_open=True),
-    Key("load_N_per_m", "load_per_length", "float", "Normal load per unit length of a line "
-        "contact.", "N/m", 1.0, default=None, lo=0, hi=1e12, lo_open=True),
-    Key("u_mean_m_s", "u_mean", "float", "Entrainment speed ū = (u1 + u2)/2.", "m/s", 1.0, lo=0,
-        hi=1e3, lo_open=True),
-    Key("slide_roll", "slide_roll", "floats", "Slide-roll ratios S = (u1 − u2)/ū, one contact "
-        "each; |S| = 2 is pure sliding.", default=None, lo=-2, hi=2),
-    Key("radius1_x_mm", "radius1_x", "float", "Radius of curvature of body 1 in the rolling "
-        "direction.", "mm", MM, lo=0, hi=1e7, lo_open=True),
-    Key("radius2_x_mm", "radius2_x", "float", "Radius of curvature of body 2 in the rolling "
-        "direction.", "mm", MM, lo=0, hi=1e7, lo_open=True),
-    Key("radius1_y_mm", "radius1_y", "float", "Radius of curvature of body 1 across the "
-        "rolling direction (crown). Default: straight.", "mm", MM, default=None, lo=0,
-        hi=1e7, lo_open=True),
-    Key("radius2_y_mm", "radius2_y", "float", "Radius of curvature of body 2 across the "
-        "rolling direction. Default: straight.", "mm", MM, default=None, lo=0, hi=1e7,
-        lo_open=True),
-))
-
-SECTIONS: tuple[Section, ...] = (_STUDY, _GEAR, _PINION, _WHEEL, _POSITIONS, _DISC, _BODY1,
-                                 _SURFACE1, _BODY2, _SURFACE2, _LUBRICANT, _FILM, _HERTZ,
-                                 _WINDOW, _LUBRICATION, _STRESS, _FATIGUE, _WEAR, _LIFE)
-
-_KEYS_PREAMBLE = """
-Scene files are TOML. Keys carry their unit in their name (`module_mm`, `torque_Nm`, `p0_GPa`);
-values are converted to SI once, when the file is read. Every key below is checked: unknown keys
-(with a suggestion), wrong types, NaN or infinite numbers and values out of range are refused with
-a one-line message naming the file, the key, the value and what is allowed. Example scenes are in
-`scenes/`. Generated by `micropit scene --help-keys`; do not edit by hand.
-"""
+        default=None, lo=0, hi=1e4, lo_open=True)
 
 
-def keys_markdown() -> str:
-    """The key reference, as in docs/scenes.md."""
-    return keys_reference(SECTIONS, "Scene file keys", _KEYS_PREAMBLE)
-
-
-# --------------------------------------------------------------------------------------------
-# the typed scene
-# --------------------------------------------------------------------------------------------
 @dataclass(frozen=True)
 class SurfaceSpec:
     """How a body's topography is made (SI). ``file`` is resolved against the scene's folder."""
 
-    kind: str = "gaussian"
-    corr_x: float = 30e-6
-    corr_y: float = 300e-6
-    acf: str = "exponential"
-    hurst: float = 0.8
-    long_cutoff: float | None = None
-    short_cutoff: float | None = None
-    file: str | None = None
-    dataset: str | None = None
-    spacing: tuple[float, ...] | None = None
-    height_unit: str = "m"
-    detrend: str = "plane"
-    nan_policy: str = "error"
-    periodise: str = "tukey"
-    rescale: bool = False
+    kind: str = setting(
+        "kind", "str", "`gaussian` (Gaussian random field, exponential or Gaussian "
+        "ACF), `self_affine` (fractal PSD between cut-offs), `file` (a measured map), "
+        "`smooth` (no roughness).", default="gaussian", choices=SURFACE_KINDS)
+    corr_x: float = setting(
+        "corr_x_um", "float", "Correlation length β_x along rolling (lag where the "
+        "ACF falls to 0.1), for `gaussian`.", "µm", UM, default=30.0, lo=0, hi=1e6,
+        lo_open=True)
+    corr_y: float = setting(
+        "corr_y_um", "float", "Correlation length β_y across rolling. Ground gears "
+        "and discs have their lay across the rolling direction: β_y ≫ β_x.", "µm", UM,
+        default=300.0, lo=0, hi=1e9, lo_open=True)
+    acf: str = setting(
+        "acf", "str", "Autocorrelation function of a `gaussian` surface.",
+        default="exponential", choices=("exponential", "gaussian"))
+    hurst: float = setting(
+        "hurst", "float", "Hurst exponent H of a `self_affine` surface.",
+        default=0.8, lo=0, hi=1, lo_open=True, hi_open=True)
+    long_cutoff: float | None = setting(
+        "long_cutoff_um", "float", "Long-wavelength roll-off of a "
+        "`self_affine` surface. Default: the window length.", "µm", UM, default=None, lo=0,
+        hi=1e6, lo_open=True)
+    short_cutoff: float | None = setting(
+        "short_cutoff_um", "float", "Short-wavelength cut-off of a "
+        "`self_affine` surface. Default: 4 grid spacings.", "µm", UM, default=None, lo=0,
+        hi=1e6, lo_open=True)
+    file: str | None = setting(
+        "file", "str", "Measured height map (`.npy`, `.npz`, text matrix, HDF5, or "
+        "any format of the optional SurfaceTopography package such as `.x3p`); relative "
+        "to the scene file.", default=None)
+    dataset: str | None = setting(
+        "dataset", "str", "HDF5 dataset (or instrument channel) to read.",
+        default=None)
+    spacing: tuple[float, ...] | None = setting(
+        "spacing_um", "floats", "Grid spacing [Δx, Δy] of a map that does not "
+        "store it (`.npy`, text, instrument files without sizes). A file's own spacing "
+        "(`.npz`, HDF5, `.x3p`, …) is used unless this is given; the run log says which "
+        "was used and what it overrode.", "µm", UM, default=None, lo=0, lo_open=True)
+    height_unit: str = setting(
+        "height_unit", "str", "Unit of the heights stored in the file.",
+        default="m", choices=("m", "mm", "um", "nm"))
+    detrend: str = setting(
+        "detrend", "str", "Detrending of a measured map (`quadratic` also "
+        "removes the flank's curvature).", default="plane",
+        choices=("none", "mean", "plane", "quadratic"))
+    nan_policy: str = setting(
+        "nan_policy", "str", "Missing points (NaN) in a measured map: refuse, "
+        "fill with the mean, or interpolate from the neighbours.", default="error",
+        choices=("error", "fill_mean", "interpolate"))
+    periodise: str = setting(
+        "periodise", "str", "How a measured map is made to tile without a "
+        "step: `tukey` taper of the edges (the deviations are then scaled back to the "
+        "map's R_q, which the taper alone lowers by ~14 %), `mirror` (even reflection), "
+        "`none`.",
+        default="tukey", choices=("none", "tukey", "mirror"))
+    rescale: bool = setting(
+        "rescale", "bool", "Scale a measured map to the body's `Rq_um` (by "
+        "default its R_q must agree with `Rq_um` within 5 %).", default=False)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Body:
-    """Material and roughness of one body (SI)."""
+    """Material and roughness of one body (SI). Keyword-only: the fields follow the keys' order
+    (``Ra`` before ``hardness``), and ``Rq`` has no default."""
 
-    E: float
-    nu: float
-    Rq: float
-    hardness: float = 7e9
+    E: float = setting(
+        "E_GPa", "float", "Young's modulus.", "GPa", GPA, default=210.0, lo=0,
+        hi=1e4, lo_open=True)
+    nu: float = setting(
+        "nu", "float", "Poisson's ratio.", default=0.3, lo=-1, hi=0.5, lo_open=True,
+        hi_open=True)
+    Rq: float = setting(
+        "Rq_um", "float", "RMS roughness R_q of the surface.", "µm", UM, lo=0, hi=1e4)
+    Ra: float | None = setting(
+        "Ra_um", "float", "Arithmetic mean roughness R_a of the flank, for the "
+        "ISO/TS 6336-22 Method B λ_GF of `micropit contact`. Default: √(2/π) R_q, the "
+        "R_a of a Gaussian height distribution (`micropit run` uses the R_a of the "
+        "simulated surfaces).", "µm", UM, default=None, lo=0, hi=1e4)
+    hardness: float = setting(
+        "hardness_GPa", "float", "Hardness H: the pressure cap p_lim = "
+        "lubrication.p_lim_hardness × the smaller H of the two bodies, and Archard wear.",
+        "GPa", GPA, default=7.0, lo=0, hi=1e3, lo_open=True)
     surface: SurfaceSpec = field(default_factory=SurfaceSpec)
-    Ra: float | None = None
 
 
 @dataclass(frozen=True)
 class Lubricant:
-    eta0: float | None
-    alpha_pv: float | None
-    beta: float | None
-    conductivity: float | None
-    tau0: float | None = None
-    iso_vg: int | None = None
-    nu40: float | None = None
-    nu100: float | None = None
-    temperature_C: float | None = None
-    rho15: float = 880.0
-    load_stage: int | None = None
-    test_temperature_C: float = 90.0
-    lambda_gft: float | None = None
+    """Lubricant at the contact inlet (SI); η0 and α may come from the grade."""
+
+    eta0: float | None = setting(
+        "eta0_mPas", "float", "Dynamic viscosity η0 at ambient pressure.", "mPa·s",
+        1e-3, default=None, lo=0, hi=1e9, lo_open=True)
+    alpha_pv: float | None = setting(
+        "alpha_pv_1_per_GPa", "float", "Barus pressure-viscosity coefficient α "
+        "(the EHL film formulas scale with a power of α: zero is not allowed).", "1/GPa", 1e-9,
+        default=None, lo=0, hi=1e3, lo_open=True)
+    beta: float | None = setting(
+        "beta_1_per_K", "float", "Temperature-viscosity coefficient β, for "
+        "`thermal = \"wilson_sheu\"`.", "1/K", 1.0, default=None, lo=0, hi=10, lo_open=True)
+    conductivity: float | None = setting(
+        "conductivity_W_per_mK", "float", "Thermal conductivity k_f of the oil, "
+        "for `thermal = \"wilson_sheu\"`.", "W/(m·K)", 1.0, default=None, lo=0, hi=1e3,
+        lo_open=True)
+    tau0: float | None = setting(
+        "eyring_stress_MPa", "float", "Eyring stress τ0 of the non-Newtonian film, "
+        "needed by the `mixed` lubrication model.", "MPa", 1e6, default=None, lo=0, hi=1e4,
+        lo_open=True)
+    iso_vg: int | None = setting(
+        "iso_vg", "int", "ISO 3448 viscosity grade (ν at 40 °C in mm²/s: 2, 3, 5, "
+        "7, 10, 15, 22, 32, 46, 68, 100, 150, 220, 320, 460, 680, 1000, 1500, 2200, 3200). "
+        "With `nu100_cSt` and `temperature_C` it gives η0 (ASTM D341 Walther) and α (Wooster "
+        "1957) when `eta0_mPas` / `alpha_pv_1_per_GPa` are not given (micropit_hpc/oil.py).",
+        default=None, lo=2, hi=3200)
+    nu40: float | None = setting(
+        "nu40_cSt", "float", "Kinematic viscosity at 40 °C (instead of `iso_vg`, "
+        "e.g. from the oil's datasheet).", "mm²/s", 1e-6, default=None, lo=2, hi=1e5)
+    nu100: float | None = setting(
+        "nu100_cSt", "float", "Kinematic viscosity at 100 °C (the oil's datasheet), "
+        "needed with `iso_vg` or `nu40_cSt`.", "mm²/s", 1e-6, default=None, lo=1, hi=1e4)
+    temperature_C: float | None = setting(
+        "temperature_C", "float", "Oil temperature at the contact inlet, "
+        "for the viscosity by grade.", "°C", 1.0, default=None, lo=-40, hi=250)
+    rho15: float = setting(
+        "density_15C_kg_m3", "float", "Density at 15 °C, for η0 = ν ρ by grade "
+        "(ρ falls 0.07 %/K).", "kg/m³", 1.0, default=880.0, lo=600, hi=2000)
+    load_stage: int | None = setting(
+        "micropitting_load_stage", "int", "Failure load stage SKS of the oil in "
+        "the FVA 54 micropitting test GF-C/8.3/90 (or /60, `micropitting_test_temperature_C`), "
+        "from the oil's datasheet: gives λ_GFT and the ISO/TS 6336-22 Method B permissible "
+        "λ_GFP (micropit_hpc/iso6336_22.py).", default=None, lo=5, hi=10)
+    test_temperature_C: float = setting(
+        "micropitting_test_temperature_C", "float", "Oil temperature "
+        "of that test (90 for GF-C/8.3/90, 60 for GF-C/8.3/60).", "°C", 1.0, default=90.0,
+        lo=20, hi=150)
+    lambda_gft: float | None = setting(
+        "lambda_GFT", "float", "The specific film thickness λ_GFT of the test "
+        "gears at the failure load stage, when known directly (a KISSsoft or datasheet value); "
+        "wins over `micropitting_load_stage`.", default=None, lo=0, hi=100, lo_open=True)
     #: how η0 and α were obtained from the grade (None when both were given)
     derived: str | None = None
 
 
 @dataclass(frozen=True)
 class FilmSpec:
-    model: str
-    thermal: str
-    hc: float | None
-    lambda_roughness: str
+    """Film model of the smooth contact; ``model`` is resolved (never ``auto``) in a scene."""
+
+    model: str = setting(
+        "model", "str", "`DH61` (line, Dowson–Higginson 1961, ISO/TS 6336-22), `DH66` "
+        "(line), `HD77c` (elliptical, Hamrock–Dowson central); `auto` picks DH61 for line and "
+        "HD77c for elliptical contacts.", default="auto", choices=("auto", *FILM_MODELS))
+    thermal: str = setting(
+        "thermal", "str", "Inlet shear-heating factor φ_T: `none` (isothermal, "
+        "reproduces the paper) or `wilson_sheu`.", default="none", choices=THERMAL_MODELS)
+    hc: float | None = setting(
+        "hc_um", "float", "Central film thickness given directly (e.g. measured); "
+        "replaces the formula and the thermal factor.", "µm", UM, default=None, lo=0,
+        hi=1e4, lo_open=True)
+    lambda_roughness: str = setting(
+        "lambda_roughness", "str", "Roughness in Λ = h_c/R_q: `composite` "
+        "√(R_q1² + R_q2²), or one body's R_q (`body2`: the counterface only, as the paper's MPR "
+        "tests define Λ).", default="composite", choices=("composite", "body1", "body2"))
 
 
 @dataclass(frozen=True)
 class GearSpec:
-    """A gear pair and how it runs: torque on and speed of gear 1 [N m, rad/s]."""
+    """A gear pair and how it runs: torque on and speed of gear 1 [N m, rad/s].
+
+    Built from :class:`GearTable` (which declares the keys and their defaults) and the
+    :class:`GearGeometry` computed from it.
+    """
 
     geometry: GearGeometry
     torque: float
     speed: float
     load_sharing: str
     accuracy_grade: int
-    slide_roll_imposed: float | None = None
-    pitch_snap: float = 0.0
-    material_factor_ww: float = 1.0
+    slide_roll_imposed: float | None = GearTable.slide_roll_imposed
+    pitch_snap: float = GearTable.pitch_snap
+    material_factor_ww: float = GearTable.material_factor_ww
 
 
 @dataclass(frozen=True)
@@ -602,76 +448,202 @@ class DiscSpec:
 class WindowSpec:
     """The computational window (SI); ``None`` lengths default to 2 b_ref."""
 
-    nx: int = 128
-    ny: int | None = None
-    lx: float | None = None
-    ly: float | None = None
-    steps: int = 20
-    seed: int = 1
+    nx: int = setting(
+        "n", "int", "Grid points along rolling (5-smooth sizes such as 64, 128, 256 are "
+        "fastest; any size works).", default=128, lo=8, hi=8192)
+    ny: int | None = setting(
+        "ny", "int", "Grid points across rolling. Default: `n`.", default=None, lo=2,
+        hi=8192)
+    lx: float | None = setting(
+        "length_x_um", "float", "Window length along rolling. Default: 2 b_ref, twice "
+        "the Hertz semi-width at the pitch point (a gear) or of the contact (a disc rig).",
+        "µm", UM, default=None, lo=0, hi=1e6, lo_open=True)
+    ly: float | None = setting(
+        "length_y_um", "float", "Window length across rolling. Default: `length_x_um`.",
+        "µm", UM, default=None, lo=0, hi=1e6, lo_open=True)
+    steps: int = setting(
+        "steps", "int", "Time steps per load cycle m (the paper used 20).",
+        default=20, lo=1, hi=100000)
+    seed: int = setting(
+        "seed", "int", "Seed of the synthetic roughness (body 1 and body 2 draw "
+        "independent streams from it).", default=1, lo=0, hi=2**63 - 1)
 
 
 @dataclass(frozen=True)
 class LubricationSpec:
     """Settings of the contact model per time step (MODEL.md §4.1), SI."""
 
-    model: str = "auto"
-    auto_lambda: float = 3.0
-    mu_bl: float = 0.11
-    mu_ehl: float = 0.05
-    h_min: float = 0.0
-    p_lim_hardness: float = 0.6
-    prefactor: float | None = None
-    fluid_share: str = "scaled"
-    combine: str = "contact"
-    tol: float = 1e-8
-    max_iter: int = 5000
-    film_tol: float = 1e-4
+    model: str = setting(
+        "model", "str", "`smooth` (no roughness: p = p̄), `dry` (elastic–perfectly-"
+        "plastic contact of the roughness; the fluid carries nothing), `mixed` (the fast "
+        "mixed-lubrication model), `auto` (`smooth` for Λ ≥ `auto_lambda` or smooth surfaces, "
+        "else `mixed`).", default="auto", choices=LUBRICATION_MODELS)
+    auto_lambda: float = setting(
+        "auto_lambda", "float", "Λ from which `auto` treats the contact as "
+        "full-film and smooth.", default=3.0, lo=0, hi=1e3, lo_open=True)
+    mu_bl: float = setting(
+        "mu_boundary", "float", "Friction coefficient on solid contact.", default=0.11,
+        lo=0, hi=2)
+    mu_ehl: float = setting(
+        "mu_ehl", "float", "Friction coefficient of the fluid film.", default=0.05,
+        lo=0, hi=2)
+    h_min: float = setting(
+        "h_min_um", "float", "Clearance at or below which a point is in solid "
+        "contact.", "µm", UM, default=0.0, lo=0, hi=100)
+    p_lim_hardness: float = setting(
+        "p_lim_hardness", "float", "Pressure cap as a fraction of the "
+        "smaller hardness: p_lim = this × H.", default=0.6, lo=0, hi=10, lo_open=True)
+    prefactor: float | None = setting(
+        "amplitude_prefactor", "float", "Prefactor c_nn of the sliding-corrected "
+        "wavelength parameter ∇_nn = c_nn ∇ ((1+S_i)/2)^(0.1+0.5K). Default: calibrated to the "
+        "pure-rolling case of Venner & Lubrecht (A_d/A_i = 0.739), 1.304; the printed value "
+        "is 0.8.", default=None, lo=0, hi=100)
+    fluid_share: str = setting(
+        "fluid_share", "str", "`scaled`: the fluid flattens the roughness in "
+        "proportion to the load it carries, 1 − φ (a vanishing film then tends to the dry "
+        "solution); `full`: always the full-film amplitude reduction.", default="scaled",
+        choices=("scaled", "full"))
+    combine: str = setting(
+        "combine", "str", "`contact`: the dry contact acts on the lubricated "
+        "clearance; `max_amplitude`: keep per Fourier mode the larger clearance amplitude of "
+        "the dry and the lubricated solutions (MODEL.md §4.1 step 4 as printed; for "
+        "comparison).", default="contact", choices=("contact", "max_amplitude"))
+    tol: float = setting(
+        "tolerance", "float", "Relative residual at which the contact solver stops.",
+        default=1e-8, lo=1e-14, hi=1e-2)
+    max_iter: int = setting(
+        "max_iterations", "int", "Iteration limit of one contact solve.",
+        default=5000, lo=10, hi=10**7)
+    film_tol: float = setting(
+        "film_tolerance", "float", "Relative tolerance of the flow balance that "
+        "fixes the solid load fraction φ.", default=1e-4, lo=1e-12, hi=0.1)
 
 
 @dataclass(frozen=True)
 class StressSpec:
     """Depth layers of the stress field (MODEL.md §4.2); ``depth`` in units of b_ref."""
 
-    layers: int = 15
-    depth: float = 0.25
-    spacing: str = "quadratic"
+    layers: int = setting(
+        "layers", "int", "Depth layers N_z from the surface to `depth_b`.",
+        default=15, lo=2, hi=1000)
+    depth: float = setting(
+        "depth_b", "float", "Deepest layer z_max as a multiple of the reference "
+        "semi-width b_ref.", default=0.25, lo=0, hi=10, lo_open=True)
+    spacing: str = setting(
+        "spacing", "str", "Layer spacing: `quadratic` z_k = z_max (k/(N_z−1))², "
+        "dense near the surface, or `uniform`.", default="quadratic",
+        choices=("quadratic", "uniform"))
 
 
 @dataclass(frozen=True)
 class FatigueSpec:
     """Dang Van, S–N and counting settings (MODEL.md §4.3–§4.4), SI."""
 
-    counting: str = "sliding"
-    A: float = -40e6
-    B: float = 1600e6
-    alpha: float | None = None
-    macro_samples: int = 241
-    peak_spacing_min_cells: float = 4.0
-    n_min: float = 1e4
-    low_cycle: str = "extrapolate"
+    counting: str = setting(
+        "counting", "str", "`sliding`: one macro cycle (the smooth Hertz path) plus "
+        "n_μ = 2b|u1 − u2|/(u_i λ_c) micro-cycles of the rough path per load cycle, λ_c the "
+        "counterface's mean peak spacing; `rainflow`: rainflow-count τ̂ + α σ_H of the rough "
+        "path (time steps raised so that the slip per step ≤ λ_c/4).", default="sliding",
+        choices=COUNTING)
+    A: float = setting(
+        "woehler_A_MPa", "float", "Slope A of σ_f = A ln N + B (σ_f = √3 τ_DV); negative.",
+        "MPa", 1e6, default=-40.0, lo=-1e5, hi=0, hi_open=True)
+    B: float = setting(
+        "woehler_B_MPa", "float", "Intercept B of the S–N line.", "MPa", 1e6,
+        default=1600.0, lo=0, hi=1e6, lo_open=True)
+    alpha: float | None = setting(
+        "alpha_dv", "float", "Dang Van hydrostatic sensitivity α_DV. Default "
+        "3(1/√3 − ½) = 0.232.", default=None, lo=0, hi=10)
+    macro_samples: int = setting(
+        "macro_samples", "int", "Samples of the smooth macro path through "
+        "the contact (x from −3b to 3b, plus the unloaded state).", default=241, lo=8,
+        hi=100000)
+    peak_spacing_min_cells: float = setting(
+        "peak_spacing_min_cells", "float", "[choice] Wavelengths "
+        "shorter than this many grid spacings are left out of the spectral moments that give "
+        "λ_c = 2π√(m2/m4): they are not resolved asperities but the grid-scale texture the "
+        "local wear and pit updates leave, which m4 (∝ k⁴) would otherwise count as peaks "
+        "(λ_c fell from 33 to 2.6 cells after 3 M cycles of wear, docs/life.md). 2 keeps every "
+        "resolved wavelength (down to Nyquist).", default=4.0, lo=2, hi=1e4)
+    n_min: float = setting(
+        "n_min", "float", "The fewest cycles the S–N line's data cover: below them "
+        "the line is extrapolated (it predicts failure within one cycle at τ = B/√3, below "
+        "the shear yield). The run reports the share of damage and new pits from N < n_min "
+        "and warns above 10 %.", "cycles", 1.0, default=1e4, lo=1, hi=1e12)
+    low_cycle: str = setting(
+        "low_cycle", "str", "Below n_min: `extrapolate` the line (the paper) or "
+        "`cap` the life at N = n_min (a sensitivity run, docs/life.md).",
+        default="extrapolate", choices=LOW_CYCLE)
 
 
 @dataclass(frozen=True)
 class WearSpec:
     """Archard wear (MODEL.md §4.6): coefficients k_lub [s] and the solid-contact factor."""
 
-    k_lub: tuple[float, ...] = (0.0,)
-    f_w: float = 10.0
+    k_lub: tuple[float, ...] = setting(
+        "k_lub_s", "floats", "Wear coefficients k_lub, one set of work items each "
+        "(the paper: 0, 1e-11, 5e-11 s).", "s", 1.0, default=[0.0], lo=0, hi=1e-3)
+    f_w: float = setting(
+        "solid_factor", "float", "f_w: the factor on k_lub where the contact is solid.",
+        default=10.0, lo=0, hi=1e6)
 
 
 @dataclass(frozen=True)
 class LifeSpec:
     """Blocks of the life simulation (MODEL.md §5), in cycles."""
 
-    cycles: float = 3e6
-    block: float = 1e6
-    max_wear_fraction: float = 0.1
-    max_damage_step: float = 0.25
-    max_pit_step: float = 0.01
-    max_splits: int = 64
-    pit_contact: str = "unloaded"
-    wear_integration: str = "relaxed"
-    integration: str = "adaptive"
+    cycles: float = setting(
+        "cycles_M", "float", "Load cycles to simulate, in millions.", "Mcycles", 1e6,
+        default=3.0, lo=0, hi=1e6, lo_open=True)
+    block: float = setting(
+        "block_M", "float", "Block ΔN between surface updates and checkpoints, in "
+        "millions (the paper: 1).", "Mcycles", 1e6, default=1.0, lo=0, hi=1e6, lo_open=True)
+    max_wear_fraction: float = setting(
+        "max_wear_fraction", "float", "Split a block if its wear would "
+        "change the shape of a body's surface by more than this fraction of its initial R_q "
+        "anywhere (the wear depth less its mean over the intact columns: a uniform removal "
+        "needs no split).", default=0.1,
+        lo=0, hi=100, lo_open=True)
+    max_damage_step: float = setting(
+        "max_damage_step", "float", "Split a block if it would raise the "
+        "maximum damage of the intact material by more than this.", default=0.25, lo=0,
+        hi=1e9, lo_open=True)
+    max_pit_step: float = setting(
+        "max_pit_step", "float", "Split a block if it would newly pit more "
+        "than this share of the window's columns (resolves the cascade of pits: a pit passes "
+        "its load to its neighbours).", default=0.01, lo=0, hi=1, lo_open=True)
+    max_splits: int = setting(
+        "max_splits", "int", "At most this many sub-blocks per block (the "
+        "smallest sub-block is ΔN/max_splits). With 4 the running-in of Table 9 at k_lub = 1e-11 s "
+        "is not resolved (A_p 5.4 % after 1 M cycles against 2.9 % converged, docs/life.md).",
+        default=64, lo=1, hi=100000)
+    pit_contact: str = setting(
+        "pit_contact", "str", "How a micropit enters the next contact "
+        "solutions [choice]. `unloaded`: the pit's floor is never reached, so its columns "
+        "carry no pressure and no traction; the contact, film balance and peak spacing are "
+        "solved on the surface around it (the heights, R_q and wear outputs still drop by "
+        "the pit depth); `geometric`: the pitted heights enter the clearance as a step "
+        "(MODEL.md §4.5 read literally; a one-cell step of microns is outside what the "
+        "small-slope half-space and the linearised micro-EHL represent and sets off a "
+        "cascade of failures around every pit, docs/life.md).", default="unloaded",
+        choices=("unloaded", "geometric"))
+    wear_integration: str = setting(
+        "wear_integration", "str", "How the wear of a sub-block is "
+        "integrated [choice]. `relaxed`: the solid-contact part of the Archard rate decays as "
+        "the wear relieves the pressure of each contact spot (lowering a spot by δ lowers its "
+        "pressure by δ/K₀, K₀ the self-compliance of a grid cell), integrated exactly over "
+        "the sub-block; the film part stays explicit; `explicit`: n·Δh, MODEL.md §4.6 as "
+        "written, which digs contact spots many R_q deep when the sub-block is much longer "
+        "than the few thousand cycles their wear takes to relieve them (docs/life.md).",
+        default="relaxed", choices=("relaxed", "explicit"))
+    integration: str = setting(
+        "integration", "str", "Time integration of the life [decision]. "
+        "`adaptive`: blocks split until damage, pits and wear are resolved in time (the "
+        "limits above); `paper`: the paper's scheme, one evaluation per block of ΔN on the "
+        "block's starting surfaces, damage and wear applied over the whole block, then the "
+        "pit check. In `paper` the wear–fatigue competition depends on block_M "
+        "(docs/life.md, \"Two time integrations\").", default="adaptive",
+        choices=INTEGRATIONS)
 
 
 @dataclass(frozen=True)
@@ -695,8 +667,8 @@ class Scene:
     fatigue: FatigueSpec = field(default_factory=FatigueSpec)
     wear: WearSpec = field(default_factory=WearSpec)
     life: LifeSpec = field(default_factory=LifeSpec)
-    roughness_scale: tuple[float, ...] = (1.0,)
-    patches: int = 1
+    roughness_scale: tuple[float, ...] = StudyTable.roughness_scale
+    patches: int = StudyTable.patches
     document: Mapping[str, Any] = field(default_factory=dict, compare=False, repr=False)
     #: plausibility warnings (values in range that look like another unit), :func:`plausibility`
     warnings: tuple[str, ...] = field(default=(), compare=False)
@@ -704,6 +676,116 @@ class Scene:
     @property
     def kind(self) -> str:
         return "gear" if self.gear is not None else "disc"
+
+
+# --------------------------------------------------------------------------------------------
+# the tables of the file, derived from the dataclasses
+# --------------------------------------------------------------------------------------------
+_STUDY = section_of(StudyTable, "study", """
+What the study is called, and the study dimensions beyond positions and wear coefficients. The
+work items of a study are positions × `wear.k_lub_s` × `roughness_scale` × `patches`.
+""")
+
+_GEAR = section_of(GearTable, "gear", """
+An external involute spur gear pair (MODEL.md §2.1). Gear 1 is the pinion (body 1) and drives;
+gear 2 is the wheel (body 2). Give either `[gear]` with `[positions]`, or `[disc]`.
+""", children=("pinion", "wheel"))
+
+
+def _wheel_section(path: str, which: str) -> Section:
+    return section_of(GearWheelTable, path, f"Gear {which} of the pair.")
+
+
+_PINION = _wheel_section("gear.pinion", "1 (the pinion, body 1, the driver)")
+_WHEEL = _wheel_section("gear.wheel", "2 (the wheel, body 2, driven)")
+
+
+def _body_section(path: str, which: str) -> Section:
+    return section_of(Body, path, f"Material and roughness of body {which}.",
+                      children=("surface",))
+
+
+def _surface_section(path: str, which: str) -> Section:
+    return section_of(SurfaceSpec, path, f"""
+Topography of body {which} on the simulation window (MODEL.md §3). Synthetic surfaces are
+generated from `window.seed` with R_q = `Rq_um` of the body; a measured map is read, detrended,
+made periodic, resampled to the window grid and checked against `Rq_um`.
+""")
+
+
+_SURFACE1 = _surface_section("body1.surface", "1")
+_SURFACE2 = _surface_section("body2.surface", "2")
+
+
+_BODY1 = _body_section("body1", "1 (the pinion or the test roller)")
+_BODY2 = _body_section("body2", "2 (the wheel or the counterface)")
+
+_LUBRICANT = section_of(Lubricant, "lubricant", """
+Lubricant at the contact inlet temperature. Required unless `[film] hc_um` gives the film.
+""")
+
+_WINDOW = section_of(WindowSpec, "window", """
+The computational window of one load cycle (MODEL.md §4): a periodic patch travelling with the
+entrainment speed from the inlet to the outlet of the contact in `steps` time steps. The same
+window and roughness patch are used at every position of a study.
+""")
+
+_LUBRICATION = section_of(LubricationSpec, "lubrication", """
+Pressure and clearance of the rough surfaces at each time step (MODEL.md §4.1).
+""")
+
+_STRESS = section_of(StressSpec, "stress", "Subsurface stress layers (MODEL.md §4.2).")
+
+_FATIGUE = section_of(FatigueSpec, "fatigue", """
+Dang Van stress, S–N line and cycle counting (MODEL.md §4.3–§4.4). A material point fails, and
+the material above it detaches as a micropit, when its Miner damage reaches 1.
+""")
+
+_WEAR = section_of(WearSpec, "wear", """
+Local mild wear, Archard's law with a dimensional coefficient (MODEL.md §4.6):
+Δh_i = ½ (|u_s|/H_i) (1/m) Σ_t k p per load cycle, k = f_w k_lub on solid contact and k_lub on
+the fluid film.
+""")
+
+_LIFE = section_of(LifeSpec, "life", """
+The life simulation (MODEL.md §5): blocks of ΔN load cycles, each evaluated on the current
+surfaces, with the adaptive split of a block.
+""")
+
+_FILM = section_of(FilmSpec, "film",
+                   "Central film thickness of the smooth contact (MODEL.md §2.4).")
+
+_HERTZ = section_of(HertzTable, "hertz",
+                    "Overrides of the smooth Hertz contact (MODEL.md §2.2, §2.5).")
+
+_POSITIONS = section_of(PositionsTable, "positions", """
+Where along the path of contact of a gear pair to evaluate; give exactly one key. Points must lie
+on the loaded path: from A to E, end points excluded when the load sharing is `linear` (they carry
+no load).
+""")
+
+_DISC = section_of(DiscTable, "disc", """
+A disc rig (e.g. the MPR triple-disc rig): two bodies with given radii of curvature, run at a
+given entrainment speed and a list of slide-roll ratios, one contact per ratio. Body 1 is the
+test roller. Without `radius*_y_mm` the contact is a line contact.
+""")
+
+SECTIONS: tuple[Section, ...] = (_STUDY, _GEAR, _PINION, _WHEEL, _POSITIONS, _DISC, _BODY1,
+                                 _SURFACE1, _BODY2, _SURFACE2, _LUBRICANT, _FILM, _HERTZ,
+                                 _WINDOW, _LUBRICATION, _STRESS, _FATIGUE, _WEAR, _LIFE)
+
+_KEYS_PREAMBLE = """
+Scene files are TOML. Keys carry their unit in their name (`module_mm`, `torque_Nm`, `p0_GPa`);
+values are converted to SI once, when the file is read. Every key below is checked: unknown keys
+(with a suggestion), wrong types, NaN or infinite numbers and values out of range are refused with
+a one-line message naming the file, the key, the value and what is allowed. Example scenes are in
+`scenes/`. Generated by `micropit scene --help-keys`; do not edit by hand.
+"""
+
+
+def keys_markdown() -> str:
+    """The key reference, as in docs/scenes.md."""
+    return keys_reference(SECTIONS, "Scene file keys", _KEYS_PREAMBLE)
 
 
 # --------------------------------------------------------------------------------------------
@@ -732,7 +814,7 @@ def load_scene(path: str | Path) -> Scene:
 def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
     """Validate a parsed TOML document and build the :class:`Scene`."""
     check_unknown(doc, TOP_LEVEL, "", source)
-    study = read_section(doc.get("study"), _STUDY, source)
+    study: StudyTable = _STUDY.read(doc.get("study"), source)
     has_gear, has_disc = "gear" in doc, "disc" in doc
     if has_gear == has_disc:
         raise SceneError(source, "give exactly one of the tables [gear] (a gear pair) and [disc] "
@@ -743,10 +825,9 @@ def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
                                      f"{name}; at least Rq_um)")
     body1 = _read_body(doc["body1"], _BODY1, _SURFACE1, source)
     body2 = _read_body(doc["body2"], _BODY2, _SURFACE2, source)
-    lub = _lubricant_by_grade(Lubricant(**read_section(doc.get("lubricant"), _LUBRICANT,
-                                                       source)), source)
-    film_v = read_section(doc.get("film"), _FILM, source)
-    hertz_v = read_section(doc.get("hertz"), _HERTZ, source)
+    lub = _lubricant_by_grade(_LUBRICANT.read(doc.get("lubricant"), source), source)
+    film_v: FilmSpec = _FILM.read(doc.get("film"), source)
+    hertz: HertzTable = _HERTZ.read(doc.get("hertz"), source)
 
     gear = positions = disc = None
     if has_gear:
@@ -761,31 +842,31 @@ def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
         line = disc.is_line
 
     film = _check_film(film_v, lub, line, source)
-    window = WindowSpec(**read_section(doc.get("window"), _WINDOW, source))
-    lubrication = LubricationSpec(**read_section(doc.get("lubrication"), _LUBRICATION, source))
-    stress = StressSpec(**read_section(doc.get("stress"), _STRESS, source))
-    fatigue = FatigueSpec(**read_section(doc.get("fatigue"), _FATIGUE, source))
-    wear = WearSpec(**read_section(doc.get("wear"), _WEAR, source))
-    life = LifeSpec(**read_section(doc.get("life"), _LIFE, source))
+    window: WindowSpec = _WINDOW.read(doc.get("window"), source)
+    lubrication: LubricationSpec = _LUBRICATION.read(doc.get("lubrication"), source)
+    stress: StressSpec = _STRESS.read(doc.get("stress"), source)
+    fatigue: FatigueSpec = _FATIGUE.read(doc.get("fatigue"), source)
+    wear: WearSpec = _WEAR.read(doc.get("wear"), source)
+    life: LifeSpec = _LIFE.read(doc.get("life"), source)
     if life.block > life.cycles:
         raise SceneError(source, f"the block ΔN = {life.block / 1e6:g} M is longer than the "
                                  f"whole life of {life.cycles / 1e6:g} M cycles",
                          key="life.block_M", value=life.block / 1e6,
                          allowed=f"≤ life.cycles_M = {life.cycles / 1e6:g}")
-    name = study["name"] or Path(source).stem
-    return Scene(source=source, name=name, description=study["description"], body1=body1,
-                 body2=body2, lubricant=lub, film=film, hertz_E_star=hertz_v["E_star"],
+    name = study.name or Path(source).stem
+    return Scene(source=source, name=name, description=study.description, body1=body1,
+                 body2=body2, lubricant=lub, film=film, hertz_E_star=hertz.E_star,
                  gear=gear, positions=positions, disc=disc, window=window,
                  lubrication=lubrication, stress=stress, fatigue=fatigue, wear=wear,
-                 life=life, roughness_scale=study["roughness_scale"],
-                 patches=study["patches"], document=dict(doc),
+                 life=life, roughness_scale=study.roughness_scale,
+                 patches=study.patches, document=dict(doc),
                  warnings=tuple(plausibility(doc, source)))
 
 
 def _read_body(table: Mapping[str, Any], section: Section, surface: Section,
                source: str) -> Body:
     values = read_section(table, section, source)
-    spec = SurfaceSpec(**read_section(table.get("surface"), surface, source))
+    spec: SurfaceSpec = surface.read(table.get("surface"), source)
     if spec.kind == "file":
         if spec.file is None:
             raise SceneError(source, f"missing key '{surface.path}.file': kind = \"file\" reads "
@@ -918,34 +999,34 @@ def _lookup(doc: Mapping[str, Any], dotted: str) -> Any:
 
 
 def _read_gear(table: Mapping[str, Any], source: str) -> tuple[GearSpec, GearMesh]:
-    g = read_section(table, _GEAR, source)
+    g: GearTable = _GEAR.read(table, source)
     for part in ("pinion", "wheel"):
         if part not in table:
             raise SceneError(source, f"missing table [gear.{part}] (at least its number of "
                                      "teeth, e.g. teeth = 23)")
-    p = read_section(table["pinion"], _PINION, source)
-    w = read_section(table["wheel"], _WHEEL, source)
-    m, alpha = g["module"], g["pressure_angle"]
+    p: GearWheelTable = _PINION.read(table["pinion"], source)
+    w: GearWheelTable = _WHEEL.read(table["wheel"], source)
+    m, alpha = g.module, g.pressure_angle
 
-    def radii(t: dict[str, Any]) -> tuple[float, float]:
-        d = m * t["teeth"]
-        tip = t["tip_diameter"] if t["tip_diameter"] is not None else d + 2 * m * (
-            1 + t["profile_shift"])
-        root = t["root_diameter"] if t["root_diameter"] is not None else d - 2 * m * (
-            1.25 - t["profile_shift"])
+    def radii(t: GearWheelTable) -> tuple[float, float]:
+        d = m * t.teeth
+        tip = t.tip_diameter if t.tip_diameter is not None else d + 2 * m * (
+            1 + t.profile_shift)
+        root = t.root_diameter if t.root_diameter is not None else d - 2 * m * (
+            1.25 - t.profile_shift)
         return tip / 2, root / 2
 
     (ra1, rf1), (ra2, rf2) = radii(p), radii(w)
     doc = {"gear": table}
     try:
-        a = g["centre_distance"]
+        a = g.centre_distance
         if a is None:
-            a = zero_backlash_centre_distance(m, alpha, p["teeth"], w["teeth"],
-                                              p["profile_shift"], w["profile_shift"])
-        geo = GearGeometry(module=m, pressure_angle=alpha, z1=p["teeth"], z2=w["teeth"],
-                           x1=p["profile_shift"], x2=w["profile_shift"], tip_radius1=ra1,
+            a = zero_backlash_centre_distance(m, alpha, p.teeth, w.teeth, p.profile_shift,
+                                              w.profile_shift)
+        geo = GearGeometry(module=m, pressure_angle=alpha, z1=p.teeth, z2=w.teeth,
+                           x1=p.profile_shift, x2=w.profile_shift, tip_radius1=ra1,
                            tip_radius2=ra2, root_radius1=rf1, root_radius2=rf2,
-                           centre_distance=a, facewidth=g["facewidth"])
+                           centre_distance=a, facewidth=g.facewidth)
         mesh = GearMesh.from_geometry(geo)
     except MeshingError as e:
         keys = []
@@ -956,10 +1037,9 @@ def _read_gear(table: Mapping[str, Any], source: str) -> tuple[GearSpec, GearMes
                         f"{dotted} (default)")
         raise SceneError(source, f"the gear pair cannot mesh: {e}; check {', '.join(keys)}"
                          ) from None
-    spec = GearSpec(geometry=geo, torque=g["torque"], speed=g["speed"],
-                    load_sharing=g["load_sharing"], accuracy_grade=g["accuracy_grade"],
-                    slide_roll_imposed=g["slide_roll_imposed"], pitch_snap=g["pitch_snap"],
-                    material_factor_ww=g["material_factor_ww"])
+    spec = GearSpec(geometry=geo, torque=g.torque, speed=g.speed, load_sharing=g.load_sharing,
+                    accuracy_grade=g.accuracy_grade, slide_roll_imposed=g.slide_roll_imposed,
+                    pitch_snap=g.pitch_snap, material_factor_ww=g.material_factor_ww)
     return spec, mesh
 
 
@@ -969,8 +1049,8 @@ def _read_positions(doc: Mapping[str, Any], gear: GearSpec, mesh: GearMesh,
         raise SceneError(source, "missing table [positions]: say where along the path of contact "
                                  "to evaluate (roll_angle_deg, radial_pos_mm, modules_below_tip "
                                  "or n)")
-    v = read_section(doc["positions"], _POSITIONS, source)
-    given = [k for k in _POSITIONS.keys if v[k.attr] is not None]
+    v: PositionsTable = _POSITIONS.read(doc["positions"], source)
+    given = [k for k in _POSITIONS.keys if getattr(v, k.attr) is not None]
     if len(given) != 1:
         names = ", ".join(f"positions.{k.name}" for k in _POSITIONS.keys)
         raise SceneError(source, f"give exactly one of {names}; found "
@@ -978,8 +1058,8 @@ def _read_positions(doc: Mapping[str, Any], gear: GearSpec, mesh: GearMesh,
     key = given[0]
     kind = key.attr
     if kind == "count":
-        return PositionSpec(kind="count", count=v["count"])
-    values = v[kind]
+        return PositionSpec(kind="count", count=v.count)
+    values = getattr(v, kind)
     open_ends = gear.load_sharing == "linear"
     lo, hi = mesh.position_range(kind)
     for i, value in enumerate(values):
@@ -995,15 +1075,15 @@ def _read_positions(doc: Mapping[str, Any], gear: GearSpec, mesh: GearMesh,
 
 
 def _read_disc(table: Mapping[str, Any], source: str) -> DiscSpec:
-    v = read_section(table, _DISC, source)
-    if v["slide_roll"] is None:
+    v: DiscTable = _DISC.read(table, source)
+    if v.slide_roll is None:
         raise SceneError(source, "missing required key 'disc.slide_roll' (one contact per "
                                  "slide-roll ratio, e.g. slide_roll = [0.05, 0.15, 0.3])")
-    ry1 = v["radius1_y"] if v["radius1_y"] is not None else math.inf
-    ry2 = v["radius2_y"] if v["radius2_y"] is not None else math.inf
+    ry1 = v.radius1_y if v.radius1_y is not None else math.inf
+    ry2 = v.radius2_y if v.radius2_y is not None else math.inf
     line = math.isinf(ry1) and math.isinf(ry2)
     if not line:
-        rx = 1.0 / (1.0 / v["radius1_x"] + 1.0 / v["radius2_x"])
+        rx = 1.0 / (1.0 / v.radius1_x + 1.0 / v.radius2_x)
         ry = 1.0 / (1.0 / ry1 + 1.0 / ry2)
         name = "radius1_y_mm" if "radius1_y_mm" in table else "radius2_y_mm"
         if not 1e-6 <= ry / rx <= 1e6:
@@ -1011,7 +1091,7 @@ def _read_disc(table: Mapping[str, Any], source: str) -> DiscSpec:
                                      f"{rx * 1e3:.4g} mm differ by more than 1e6: this is a line "
                                      "contact (omit radius1_y_mm and radius2_y_mm) or a radius "
                                      "is mistyped", key=f"disc.{name}", value=table[name])
-    loads = {"p0_GPa": v["p0"], "load_N": v["load"], "load_N_per_m": v["load_per_length"]}
+    loads = {"p0_GPa": v.p0, "load_N": v.load, "load_N_per_m": v.load_per_length}
     given = [k for k, x in loads.items() if x is not None]
     if len(given) != 1:
         raise SceneError(source, "give exactly one of disc.p0_GPa, disc.load_N, "
@@ -1024,30 +1104,29 @@ def _read_disc(table: Mapping[str, Any], source: str) -> DiscSpec:
         raise SceneError(source, "an elliptical contact (radius*_y_mm given) carries a total "
                                  "load: use load_N or p0_GPa", key="disc.load_N_per_m",
                          value=table["load_N_per_m"])
-    load = v["load"] if v["load"] is not None else v["load_per_length"]
-    return DiscSpec(u_mean=v["u_mean"], slide_roll=v["slide_roll"], radius1_x=v["radius1_x"],
-                    radius2_x=v["radius2_x"], radius1_y=ry1, radius2_y=ry2, p0=v["p0"],
-                    load=load)
+    load = v.load if v.load is not None else v.load_per_length
+    return DiscSpec(u_mean=v.u_mean, slide_roll=v.slide_roll, radius1_x=v.radius1_x,
+                    radius2_x=v.radius2_x, radius1_y=ry1, radius2_y=ry2, p0=v.p0, load=load)
 
 
-def _check_film(v: dict[str, Any], lub: Lubricant, line: bool, source: str) -> FilmSpec:
-    model = v["model"]
+def _check_film(v: FilmSpec, lub: Lubricant, line: bool, source: str) -> FilmSpec:
+    """The film as read, checked against the contact and the lubricant; ``auto`` resolved."""
+    model = v.model
     if model == "auto":
         model = "DH61" if line else "HD77c"
     geometry = "line" if line else "elliptical"
     if (model == "HD77c") == line:
         wanted = "DH61 or DH66" if line else "HD77c"
         raise SceneError(source, f"this is {'an' if not line else 'a'} {geometry} contact; its "
-                                 f"film model is {wanted}", key="film.model", value=v["model"])
-    if v["hc"] is None:
+                                 f"film model is {wanted}", key="film.model", value=v.model)
+    if v.hc is None:
         for attr, key in (("eta0", "eta0_mPas"), ("alpha_pv", "alpha_pv_1_per_GPa")):
             if getattr(lub, attr) is None:
                 raise SceneError(source, f"missing key 'lubricant.{key}': the film is computed "
                                          "from the lubricant because film.hc_um is not given")
-        if v["thermal"] == "wilson_sheu":
+        if v.thermal == "wilson_sheu":
             for attr, key in (("beta", "beta_1_per_K"), ("conductivity", "conductivity_W_per_mK")):
                 if getattr(lub, attr) is None:
                     raise SceneError(source, f"missing key 'lubricant.{key}': film.thermal = "
                                              "\"wilson_sheu\" needs it")
-    return FilmSpec(model=model, thermal=v["thermal"], hc=v["hc"],
-                    lambda_roughness=v["lambda_roughness"])
+    return replace(v, model=model)

@@ -1,10 +1,15 @@
 """Scene-file schema: typed keys with units, ranges and documentation, and the validator.
 
-A scene file is TOML. Every key is declared once here (by the scene module) as a :class:`Key`
-with its type, its unit (named in the key, e.g. ``module_mm``), the factor that converts it to SI,
-its default and its allowed range. The same declarations drive validation, the conversion to SI
-(done once, at load time) and the key reference (``micropit scene --help-keys``, docs/scenes.md),
-so the documentation cannot drift from what the code accepts.
+A scene file is TOML. Each key is declared once, as a field of the frozen dataclass that holds its
+value (the scene module's ``*Spec`` classes, or a small table class where a TOML table does not map
+one-to-one onto the object the code uses): :func:`setting` returns the ``dataclasses.field`` whose
+metadata carries the :class:`Key` (the key's name in the file with its unit, e.g. ``module_mm``,
+its type, the factor that converts it to SI, its default in file units, its allowed range and its
+meaning) and whose dataclass default is that file default converted to SI. :func:`section_of`
+derives a TOML table's :class:`Section` from the class. The same declarations drive validation,
+the conversion to SI (done once, at load time) and the key reference (``micropit scene
+--help-keys``, docs/scenes.md), so neither the documentation nor the dataclass defaults can drift
+from what the code accepts.
 """
 
 from __future__ import annotations
@@ -13,7 +18,7 @@ import datetime
 import difflib
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field, fields, replace
 from typing import Any
 
 from micropit_hpc.errors import SceneError, format_value
@@ -35,9 +40,11 @@ _TYPE_WORDS = {"float": "a number", "int": "an integer", "str": "a string", "boo
 class Key:
     """One scene-file key.
 
-    ``default`` is in file units; ``None`` means optional and absent, :data:`REQUIRED` means the
-    key must be given. Numbers are multiplied by ``scale`` to give SI values. Bounds ``lo``/``hi``
-    apply in file units, open when ``lo_open``/``hi_open``.
+    Declared through :func:`setting` as a dataclass field's metadata; ``attr`` (the field's name,
+    the SI attribute) is filled in by :func:`section_of`. ``default`` is in file units; ``None``
+    means optional and absent, :data:`REQUIRED` means the key must be given. Numbers are
+    multiplied by ``scale`` to give SI values. Bounds ``lo``/``hi`` apply in file units, open
+    when ``lo_open``/``hi_open``.
     """
 
     name: str
@@ -84,17 +91,58 @@ class Key:
         return not (self.hi is not None and (v > self.hi or (self.hi_open and v == self.hi)))
 
 
+#: name of the dataclass-field metadata entry that holds a setting's :class:`Key`
+KEY = "scene_key"
+
+
+def setting(name: str, type: str, doc: str, unit: str = "", scale: float = 1.0,
+            default: Any = REQUIRED, *, lo: float | None = None, hi: float | None = None,
+            lo_open: bool = False, hi_open: bool = False, choices: tuple[str, ...] = ()) -> Any:
+    """A dataclass field that is a scene key: the key's declaration, the only one.
+
+    The arguments are those of :class:`Key` less ``attr`` (the field's name). The field's
+    dataclass default is ``default`` (file units) converted to SI exactly as a file's value is,
+    so an omitted key and the dataclass default are the same float; a :data:`REQUIRED` key gives
+    a keyword-only field without a default.
+    """
+    key = Key(name, "", type, doc, unit, scale, default, lo, hi, lo_open, hi_open, choices)
+    meta = {KEY: key}
+    if default is REQUIRED:
+        return field(kw_only=True, metadata=meta)
+    si = None if default is None else _convert(key, default, name, "<schema>")
+    return field(default=si, metadata=meta)
+
+
+def keys_of(cls: type) -> tuple[Key, ...]:
+    """The keys declared by the fields of a dataclass, in field order, ``attr`` = field name."""
+    return tuple(replace(f.metadata[KEY], attr=f.name) for f in fields(cls) if KEY in f.metadata)
+
+
 @dataclass(frozen=True)
 class Section:
-    """A TOML table of the scene file (``path`` is dotted, e.g. ``gear.pinion``)."""
+    """A TOML table of the scene file (``path`` is dotted, e.g. ``gear.pinion``).
+
+    Made by :func:`section_of` from the dataclass ``cls`` whose fields declare the keys.
+    """
 
     path: str
     doc: str
     keys: tuple[Key, ...]
     children: tuple[str, ...] = ()
+    cls: type | None = field(default=None, compare=False, repr=False)
 
     def dotted(self, name: str) -> str:
         return f"{self.path}.{name}" if self.path else name
+
+    def read(self, table: Any, source: str, **extra: Any) -> Any:
+        """Validate ``table`` and build ``cls`` from its SI values (and ``extra`` fields)."""
+        assert self.cls is not None, f"section [{self.path}] has no dataclass"
+        return self.cls(**read_section(table, self, source), **extra)
+
+
+def section_of(cls: type, path: str, doc: str, children: tuple[str, ...] = ()) -> Section:
+    """The section of TOML table ``path`` whose keys are the setting fields of ``cls``."""
+    return Section(path, doc, keys_of(cls), children, cls)
 
 
 def _num(x: float) -> str:
