@@ -65,6 +65,7 @@ from micropit_hpc.parallel.petsc import event
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.pits import detach, shift_columns
 from micropit_hpc.scene import INTEGRATIONS
+from micropit_hpc.state import BlockRecord, BodyState, LifeState
 from micropit_hpc.surfaces import Topography
 from micropit_hpc.wear import WearRate, archard_wear
 
@@ -109,43 +110,6 @@ class LifeParams:
                    integration=life.integration)
 
 
-@dataclass
-class BodyState:
-    """The evolving state of one body of a work item (material frame, SI).
-
-    ``heights`` (n_x, n_y): the surface; ``damage`` (N_z, n_x, n_y): Miner damage on the layers
-    below the local surface (in a group of several ranks: this rank's slab rows only);
-    ``pitted``: columns that have lost material to a micropit;
-    ``wear``: cumulative wear depth; ``pit_depth``: cumulative depth lost to pits; ``rq0``: the
-    initial R_q (the split criterion's yardstick).
-    """
-
-    heights: np.ndarray
-    damage: np.ndarray
-    pitted: np.ndarray
-    wear: np.ndarray
-    pit_depth: np.ndarray
-    rq0: float
-
-    @property
-    def Ap(self) -> float:
-        """Micropitted area fraction A_p [%] (MODEL.md §4.5)."""
-        return 100.0 * float(self.pitted.mean())
-
-    @property
-    def rq(self) -> float:
-        return float(self.heights.std())
-
-
-@dataclass
-class LifeState:
-    """Both bodies of a work item, the cycles and blocks done."""
-
-    bodies: tuple[BodyState, BodyState]
-    cycles: float = 0.0
-    block: int = 0
-
-
 @dataclass(frozen=True)
 class BodyCycle:
     """One load cycle's effect on one body: damage per cycle (N_z, n_x, n_y), wear per cycle
@@ -176,45 +140,6 @@ class CycleResult:
     steps: int
     wall_s: float
     plastic_share: float = 0.0
-
-
-@dataclass(frozen=True)
-class BlockRecord:
-    """The state at the end of a block (one value per body where a pair). ``wear_step``: the
-    largest shape change one sub-block's wear made (:func:`shape_change`), over the body's
-    initial R_q (the split aims at ≤ ``max_wear_fraction``; above it the split stopped at
-    ``max_splits``). ``pit_step``: the largest share of the window's columns one sub-block
-    newly pitted on either body (the split aims at ≤ ``max_pit_step``).
-
-    The model's range (:mod:`micropit_hpc.regime` turns these into flags and warnings):
-    ``low_cycle_damage``: the share of the block's damage (summed over the material points)
-    that came from N < n_min; ``low_cycle_pits``: the share of the block's newly pitted
-    columns whose failing point took most of its damage from N < n_min (0 without new pits);
-    ``plastic_share``: the share of the contact area at p_lim (the block's evaluations,
-    weighted by their cycles); ``deep_damage``: :func:`deep_damage_ratio`, the largest over
-    the block's evaluations; ``slope``: each surface's RMS slope Δq along x at the end of the
-    block, of the surface the contact sees (the pits filled: their walls carry no load)
-    [rad]; ``pit_depth_max``: the deepest cumulative pit of each body [m]."""
-
-    block: int
-    cycles: float
-    sub_blocks: int
-    phi: float
-    wall_s: float
-    Ap: tuple[float, float]
-    max_damage: tuple[float, float]
-    wear_mean: tuple[float, float]
-    wear_max: tuple[float, float]
-    Rq: tuple[float, float]
-    n_micro: tuple[float, float]
-    wear_step: float = 0.0
-    pit_step: float = 0.0
-    low_cycle_damage: tuple[float, float] = (0.0, 0.0)
-    low_cycle_pits: tuple[float, float] = (0.0, 0.0)
-    plastic_share: float = 0.0
-    deep_damage: tuple[float, float] = (0.0, 0.0)
-    slope: tuple[float, float] = (0.0, 0.0)
-    pit_depth_max: tuple[float, float] = (0.0, 0.0)
 
 
 @dataclass(frozen=True)

@@ -27,7 +27,7 @@ import json
 import time
 import uuid
 from collections.abc import Callable
-from dataclasses import astuple, dataclass, fields
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -45,50 +45,28 @@ from micropit_hpc.io.checkpoint import (
     write_checkpoint,
 )
 from micropit_hpc.io.hdf5 import h5py_module, scene_json
-from micropit_hpc.life import BlockRecord
 from micropit_hpc.parallel.control import StopControl
 from micropit_hpc.parallel.petsc import stage
 from micropit_hpc.parallel.share import from_root, raise_agreed
 from micropit_hpc.plan import Plan
 from micropit_hpc.scene import Scene
+from micropit_hpc.state import (
+    BODY_FIELDS,
+    ITEM_STATE,
+    RECORD_FIELDS,
+    BlockRecord,
+    item_state_row,
+    record_from_row,
+    record_row,
+    restore_item_state,
+)
 from micropit_hpc.study import Study
 
-__all__ = ["RECORD_FIELDS", "RunOptions", "RunOutcome", "record_from_row", "record_row",
-           "run_study"]
+__all__ = ["RunOptions", "RunOutcome", "run_study"]
 
 CHECKPOINT_DIR = "checkpoints"
 #: The wall-time budget reserves this many times the longest block so far for the next one.
 NEXT_BLOCK_MARGIN = 1.2
-
-#: Columns of the ``records`` checkpoint field: BlockRecord's fields, pairs flattened.
-RECORD_FIELDS = ("block", "cycles", "sub_blocks", "phi", "wall_s", "Ap1", "Ap2",
-                 "max_damage1", "max_damage2", "wear_mean1", "wear_mean2", "wear_max1",
-                 "wear_max2", "Rq1", "Rq2", "n_micro1", "n_micro2", "wear_step",
-                 "pit_step", "low_cycle_damage1", "low_cycle_damage2", "low_cycle_pits1",
-                 "low_cycle_pits2", "plastic_share", "deep_damage1", "deep_damage2", "slope1",
-                 "slope2", "pit_depth_max1", "pit_depth_max2")
-
-
-def record_row(rec: BlockRecord) -> np.ndarray:
-    """A BlockRecord as one float64 row of :data:`RECORD_FIELDS`."""
-    out = []
-    for v in astuple(rec):
-        out.extend(v if isinstance(v, tuple) else (v,))
-    return np.array(out, dtype=float)
-
-
-def record_from_row(row: np.ndarray) -> BlockRecord:
-    """The BlockRecord of a :func:`record_row` row (exact round trip)."""
-    vals, i = {}, 0
-    for f in fields(BlockRecord):
-        if f.name in ("block", "sub_blocks"):
-            vals[f.name], i = int(row[i]), i + 1
-        elif f.name in ("cycles", "phi", "wall_s", "wear_step", "pit_step", "plastic_share"):
-            vals[f.name], i = float(row[i]), i + 1
-        else:
-            vals[f.name], i = (float(row[i]), float(row[i + 1])), i + 2
-    return BlockRecord(**vals)
-
 
 @dataclass(frozen=True)
 class RunOptions:
@@ -121,16 +99,14 @@ class RunOutcome:
 
 
 def _field_specs(study: Study) -> list[FieldSpec]:
+    """The checkpoint's fields: the item state row, the block records, and every stored
+    array of each body (:data:`~micropit_hpc.state.BODY_FIELDS`)."""
     grid, z = study.plan.window.grid, study.plan.window.z
-    shape2 = grid.shape
-    specs = [FieldSpec("state", (4,), "f8"),
+    specs = [FieldSpec("state", (len(ITEM_STATE),), "f8"),
              FieldSpec("records", (study.blocks, len(RECORD_FIELDS)), "f8")]
     for b in (1, 2):
-        specs += [FieldSpec(f"body{b}/heights", shape2, "f8"),
-                  FieldSpec(f"body{b}/wear", shape2, "f8"),
-                  FieldSpec(f"body{b}/pit_depth", shape2, "f8"),
-                  FieldSpec(f"body{b}/pitted", shape2, "u1"),
-                  FieldSpec(f"body{b}/damage", (z.size, *shape2), "f8")]
+        specs += [FieldSpec(f"body{b}/{f.name}", (z.size, *grid.shape) if f.layered
+                            else grid.shape, f.dtype) for f in BODY_FIELDS]
     return specs
 
 
@@ -207,16 +183,16 @@ def _pieces(study: Study, records: dict[int, list[BlockRecord]]) -> list[Piece]:
         rows = run.cycle.slab.rows
         st = run.state
         for b, bs in enumerate(st.bodies, start=1):
-            pieces.append(Piece(iid, f"body{b}/damage", bs.damage,
-                                (slice(None), slice(rows.start, rows.stop))))
-            if study.group.is_root:
-                pieces += [Piece(iid, f"body{b}/heights", bs.heights),
-                           Piece(iid, f"body{b}/wear", bs.wear),
-                           Piece(iid, f"body{b}/pit_depth", bs.pit_depth),
-                           Piece(iid, f"body{b}/pitted", bs.pitted.astype(np.uint8))]
+            for f in BODY_FIELDS:
+                data = getattr(bs, f.name)
+                if f.layered:     # every rank its slab rows
+                    pieces.append(Piece(iid, f"body{b}/{f.name}", data,
+                                        (slice(None), slice(rows.start, rows.stop))))
+                elif study.group.is_root:
+                    pieces.append(Piece(iid, f"body{b}/{f.name}", data.astype(f.dtype,
+                                                                               copy=False)))
         if study.group.is_root:
-            pieces.append(Piece(iid, "state", np.array(
-                [st.cycles, st.block, st.bodies[0].rq0, st.bodies[1].rq0])))
+            pieces.append(Piece(iid, "state", item_state_row(st)))
     if study.comm.rank == 0:
         for iid, recs in records.items():
             tab = np.full((study.blocks, len(RECORD_FIELDS)), np.nan)
@@ -270,25 +246,20 @@ def _read_state(path: Path, study: Study) -> tuple[int, dict[int, list[BlockReco
         rows = run.cycle.slab.rows
         requests.append((iid, "state", None))
         for b in (1, 2):
-            requests.append((iid, f"body{b}/damage", (slice(None), slice(rows.start,
-                                                                         rows.stop))))
-            for name in ("heights", "wear", "pit_depth", "pitted"):
-                requests.append((iid, f"body{b}/{name}", None))
+            requests += [(iid, f"body{b}/{f.name}", (slice(None), slice(rows.start, rows.stop))
+                          if f.layered else None) for f in BODY_FIELDS]
     if study.comm.rank == 0:
         requests += [(it.id, "records", None) for it in study.items]
     attrs, data = read_checkpoint(path, study.comm, requests)
     done = int(attrs["block"])
     for iid, run in study.runs.items():
-        state = data[(iid, "state")]
         st = run.state
-        st.cycles, st.block = float(state[0]), int(state[1])
+        restore_item_state(st, data[(iid, "state")])
         for b, bs in enumerate(st.bodies, start=1):
-            bs.heights = np.array(data[(iid, f"body{b}/heights")], dtype=float)
-            bs.wear = np.array(data[(iid, f"body{b}/wear")], dtype=float)
-            bs.pit_depth = np.array(data[(iid, f"body{b}/pit_depth")], dtype=float)
-            bs.pitted = np.array(data[(iid, f"body{b}/pitted")]).astype(bool)
-            bs.damage = np.array(data[(iid, f"body{b}/damage")], dtype=float)
-            bs.rq0 = float(state[1 + b])
+            for f in BODY_FIELDS:
+                arr = np.array(data[(iid, f"body{b}/{f.name}")])
+                setattr(bs, f.name, arr.astype(bool) if f.dtype == "u1" else
+                        arr.astype(float))
             if bs.damage.shape != run.cycle.slab.local_shape:
                 raise CheckpointError(f"{path}: damage of item {iid} has shape "
                                       f"{bs.damage.shape}, this window needs "

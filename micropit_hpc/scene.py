@@ -17,7 +17,6 @@ input raises :class:`SceneError` naming the file, the key, the value and what is
 """
 
 # setting(...) returns the dataclasses.field of a key (a default and metadata), not a shared value
-# ruff: noqa: RUF009
 
 from __future__ import annotations
 

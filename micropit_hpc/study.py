@@ -39,6 +39,7 @@ from micropit_hpc.plan import (
 )
 from micropit_hpc.regime import block_flags
 from micropit_hpc.scene import Scene
+from micropit_hpc.state import BODY_FIELDS
 from micropit_hpc.surfaces import Topography
 
 __all__ = ["SUMMARY_COLUMNS", "ItemRun", "Study", "summary_rows"]
@@ -217,14 +218,14 @@ class Study:
         for iid, run in self.runs.items():
             maps = {}
             for i, b in enumerate(run.state.bodies, start=1):
-                damage = run.cycle.slab.gather(b.damage)
-                if self.group.is_root:
-                    maps[f"body{i}/heights"] = b.heights
-                    maps[f"body{i}/damage"] = damage
-                    maps[f"body{i}/damage_risk"] = damage.max(axis=0)
-                    maps[f"body{i}/pitted"] = b.pitted.astype(np.uint8)
-                    maps[f"body{i}/wear"] = b.wear
-                    maps[f"body{i}/pit_depth"] = b.pit_depth
+                for f in BODY_FIELDS:
+                    value = getattr(b, f.name)
+                    if f.layered:
+                        value = run.cycle.slab.gather(value)
+                    if self.group.is_root:
+                        maps[f"body{i}/{f.name}"] = value.astype(f.dtype, copy=False)
+                        if f.name == "damage":   # the worst layer of each column
+                            maps[f"body{i}/damage_risk"] = value.max(axis=0)
             if self.group.is_root:
                 local[iid] = maps
         parts = self.comm.gather(local, root=0)

@@ -21,7 +21,7 @@ from test_run import _write_scene
 from micropit_hpc.cli import main
 from micropit_hpc.io.checkpoint import find_latest
 from micropit_hpc.parallel.control import EXIT_CHECKPOINTED
-from micropit_hpc.runner import RECORD_FIELDS, record_from_row, record_row
+from micropit_hpc.state import RECORD_FIELDS, record_from_row, record_row
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -3,7 +3,6 @@ metadata carries the key and whose default is the key's file default in SI; the 
 file (and so the reading and docs/scenes.md) are derived from the classes."""
 
 # setting(...) returns a dataclasses.field (a default and metadata), not a shared value
-# ruff: noqa: RUF009
 
 from __future__ import annotations
 

@@ -31,13 +31,14 @@ from micropit_hpc.errors import MicropitError
 from micropit_hpc.io.atomic import write_text_atomic
 from micropit_hpc.io.hdf5 import atomic_h5, h5py_module, scene_json
 from micropit_hpc.regime import block_flags
+from micropit_hpc.state import BODY_FIELDS, RECORD_UNITS
 
 __all__ = ["MAP_UNITS", "Grid", "MethodB", "Results", "ResultsError", "Table", "load_results",
            "load_summary", "write_results", "write_summary", "write_xdmf"]
 
-#: Unit of each final map (``maps/item_NNNNN/bodyB/<name>``).
-MAP_UNITS = {"heights": "m", "damage": "1", "damage_risk": "1", "pitted": "1", "wear": "m",
-             "pit_depth": "m"}
+#: Unit of each final map (``maps/item_NNNNN/bodyB/<name>``): the stored state of a body
+#: (:data:`~micropit_hpc.state.BODY_FIELDS`) and the damage's worst layer per column.
+MAP_UNITS = {**{f.name: f.unit for f in BODY_FIELDS}, "damage_risk": "1"}
 #: Unit of each item column (``items/<name>``).
 ITEM_UNITS = {"id": "1", "position": "1", "k_lub": "s", "roughness_scale": "1", "patch": "1",
               "S": "1", "p0": "Pa", "Lambda": "1", "lambda_GF": "1", "hc": "m",
@@ -126,14 +127,7 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
             hist = f.create_group("history")
             for iid, recs in records.items():
                 g = hist.create_group(f"item_{iid:05d}")
-                for name, unit in (("block", "1"), ("cycles", "1"), ("sub_blocks", "1"),
-                                   ("phi", "1"), ("wall_s", "s"), ("Ap", "%"),
-                                   ("max_damage", "1"), ("wear_mean", "m"), ("wear_max", "m"),
-                                   ("Rq", "m"), ("n_micro", "1"), ("wear_step", "1"),
-                                   ("pit_step", "1"), ("low_cycle_damage", "1"),
-                                   ("low_cycle_pits", "1"), ("plastic_share", "1"),
-                                   ("deep_damage", "1"), ("slope", "rad"),
-                                   ("pit_depth_max", "m")):
+                for name, unit in RECORD_UNITS.items():
                     g[name] = np.array([getattr(r, name) for r in recs])  # (blocks[, 2 bodies])
                     g[name].attrs["unit"] = unit
                 flags = [";".join(block_flags(r, study.z_max, not study.window_problems))
