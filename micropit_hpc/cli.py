@@ -196,19 +196,13 @@ def _run(args, comm, control, log, t0) -> int:
 
 
 def _run_locked(args, comm, control, log, t0, plan, opts) -> str:
-    """The run itself, in a locked output folder; returns "done" or "stopped"."""
-    import time
-
-    from micropit_hpc.io import outdir
-    from micropit_hpc.io.results import write_results, write_summary
-    from micropit_hpc.parallel.petsc import stage
-    from micropit_hpc.progress import NullProgress, Progress, block_fraction, inside_note
-    from micropit_hpc.regime import block_warning
+    """The run itself, in a locked output folder, with its handlers attached (progress, the
+    model's-range warnings, the results); returns "done" or "stopped"."""
+    from micropit_hpc.io.results import ResultsHandler
+    from micropit_hpc.progress import ProgressHandler
+    from micropit_hpc.regime import RangeWarnings
     from micropit_hpc.runner import run_study
-    from micropit_hpc.study import SUMMARY_COLUMNS, summary_rows
 
-    rank0 = comm.rank == 0
-    out = opts.out
     scene, n_blocks = plan.scene, plan.blocks
     last = plan.block_cycles(n_blocks)
     shorter = (f", the last of {last / 1e6:g} M" if last != scene.life.block else "")
@@ -221,87 +215,11 @@ def _run_locked(args, comm, control, log, t0, plan, opts) -> str:
     log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item, "
         f"{n_blocks} blocks of {scene.life.block / 1e6:g} M cycles{shorter} to "
         f"{scene.life.cycles / 1e6:g} M")
-    progress, the_study = [None], [None]
-
-    def on_start(blocks: int, start: int, study) -> None:
-        the_study[0] = study
-        progress[0] = (Progress(blocks, "blocks", initial=start) if rank0 and not args.quiet
-                       else NullProgress(blocks, "blocks"))
-        progress[0].update(start, "starting", milestone=False)   # the first line, at once
-
-    def on_progress(k: int, item, i: int, n: int, done: float, total: float, sub: int,
-                    step: int, steps: int) -> None:
-        progress[0].update(block_fraction(k, i, n, done, total),
-                           inside_note(k, item, i, n, done, total, sub, step, steps),
-                           milestone=False)
-
-    life = scene.life
-    why_wear = ("for a stable wear update" if life.wear_integration == "explicit" else
-                "to follow the running-in in finer steps (the relaxed update keeps each step "
-                "within the elastic relief of the contact spots)")
-    # (record field, limit, what one sub-block did, unit scale, why finer steps) of the split
-    limits = (("wear_step", life.max_wear_fraction, "one sub-block's wear changed the surface "
-               "by up to {} × R_q", 1.0, "life.max_wear_fraction", why_wear),
-              ("pit_step", life.max_pit_step, "one sub-block newly pitted up to {} % of the "
-               "window", 100.0, "life.max_pit_step", "to follow the cascade of pits in finer "
-               "steps"))
-    warned: dict[str, set[int]] = {f[0]: set() for f in limits}   # once per item and limit
-
-    def on_block(k: int, blocks: int, records: dict) -> None:
-        for name, limit, did, scale, key, why in limits:
-            over = {iid: getattr(recs[-1], name) for iid, recs in records.items()
-                    if recs and iid not in warned[name]
-                    and getattr(recs[-1], name) > limit * (1 + 1e-9)}
-            if over:
-                warned[name].update(over)
-                worst = max(over, key=over.get)
-                log(f"warning: block {k}, {_item_list(sorted(over))}: "
-                    f"{did.format(f'{scale * over[worst]:.3g}')} (item {worst}), above {key} "
-                    f"= {limit:g}; the split stopped at life.max_splits = {life.max_splits}. "
-                    f"Raise max_splits (or lower life.block_M) {why} (docs/life.md)")
-
-        st = the_study[0]
-        line = block_warning(k, {iid: r[-1] for iid, r in records.items() if r}, st.z_max,
-                             not st.window_problems)
-        if line:
-            log(line)
-        ap = max((r[-1].Ap[0] for r in records.values() if r), default=0.0)
-        progress[0].update(k, f"{k * len(records)} item-blocks of {blocks * len(records)}, "
-                              f"max A_p body 1 {ap:.3g} %")
-
-    outcome = run_study(scene, opts, comm, log, on_block, on_start, control=control,
-                        on_progress=on_progress, plan=plan)
-    if progress[0] is not None:
-        progress[0].close()
-    study = outcome.study
-    with stage("results"):
-        maps = study.gather_maps()
-        if rank0:
-            rows = []
-            for it in study.items:
-                run_c = study.base.conditions[it.position - 1]
-                rows += summary_rows(it, run_c, outcome.records[it.id], study.item_lambda(it),
-                                     lambda_gf=study.item_lambda_gf(it),
-                                     lambda_gfp=study.method_b.lambda_gfp,
-                                     z_max=study.z_max, window_ok=not study.window_problems)
-            meta = {"ranks": comm.size, "ranks_per_item": args.ranks_per_item,
-                    "wall_s": time.perf_counter() - t0, "status": outcome.status,
-                    "blocks_done": outcome.blocks_done, "restarted_from_block":
-                    outcome.start_block}
-            staged = outdir.staging(out)
-            write_summary(staged / "summary.csv", SUMMARY_COLUMNS, rows)
-            write_results(staged / "results.h5", study, outcome.records, maps, meta)
-            try:
-                manifest = outdir.publish(out, ("summary.csv", "results.h5", "results.xdmf"), {
-                    "status": outcome.status, "blocks_done": outcome.blocks_done,
-                    "blocks": study.blocks, "run_id": outcome.run_id})
-            except OSError as e:
-                raise MicropitError(f"cannot publish the results in {out}: "
-                                    f"{e.strerror or e}") from None
-            what = ("results" if outcome.status == "done"
-                    else f"partial results (block {outcome.blocks_done} of {study.blocks})")
-            log(f"wrote {what}: {out / 'summary.csv'} and {out / 'results.h5'} ({manifest}) "
-                f"in {time.perf_counter() - t0:.1f} s")
+    handlers = (RangeWarnings(scene.life, log),
+                ProgressHandler(comm.rank == 0, args.quiet),
+                ResultsHandler(opts.out, {"ranks": comm.size,
+                                          "ranks_per_item": args.ranks_per_item}, t0, log))
+    outcome = run_study(scene, opts, comm, log, handlers, control=control, plan=plan)
     if outcome.status == "done" and control.signal_received:
         log(f"signal {control.signal_received} arrived after the last block; the results are "
             "complete")
@@ -581,10 +499,3 @@ def _wait_for_all(comm, timeout_s: float) -> bool:
     return False
 
 
-def _item_list(ids: list[int], show: int = 12) -> str:
-    """'item 3', 'items 0, 1, 4' or 'items 0, 1, … and 40 more (42 items)'."""
-    if len(ids) == 1:
-        return f"item {ids[0]}"
-    head = ", ".join(map(str, ids[:show]))
-    more = f", … and {len(ids) - show} more ({len(ids)} items)" if len(ids) > show else ""
-    return f"items {head}{more}"

@@ -159,3 +159,32 @@ class NullProgress:
 
     def __exit__(self, *exc) -> None:
         pass
+
+
+class ProgressHandler:
+    """Progress of ``micropit run`` (a :class:`~micropit_hpc.runner.Handler`): a line at once,
+    lines inside the blocks (item, sub-block, step, with ETA) and one per block, on rank 0
+    unless ``quiet``."""
+
+    def __init__(self, rank0: bool, quiet: bool = False):
+        self.show = rank0 and not quiet
+        self.bar: Progress | NullProgress = NullProgress()
+
+    def start(self, study, blocks: int, start: int) -> None:
+        self.bar = Progress(blocks, "blocks", initial=start) if self.show \
+            else NullProgress(blocks, "blocks")
+        self.bar.update(start, "starting", milestone=False)   # the first line, at once
+
+    def progress(self, k: int, item, i: int, n: int, done: float, total: float, sub: int,
+                 step: int, steps: int) -> None:
+        self.bar.update(block_fraction(k, i, n, done, total),
+                        inside_note(k, item, i, n, done, total, sub, step, steps),
+                        milestone=False)
+
+    def block(self, k: int, blocks: int, records) -> None:
+        ap = max((r[-1].Ap[0] for r in records.values() if r), default=0.0)
+        self.bar.update(k, f"{k * len(records)} item-blocks of {blocks * len(records)}, "
+                           f"max A_p body 1 {ap:.3g} %")
+
+    def finish(self, outcome) -> None:
+        self.bar.close()

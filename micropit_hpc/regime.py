@@ -25,7 +25,8 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 
-__all__ = ["LIMITS", "block_flags", "block_warning", "window_problems"]
+__all__ = ["LIMITS", "RangeWarnings", "block_flags", "block_warning", "item_list",
+           "window_problems"]
 
 #: The limits of the model's range (module docstring).
 LIMITS = {"saturated_Ap_pct": 90.0, "low_cycle_share": 0.10, "plastic_share": 0.5,
@@ -124,3 +125,62 @@ def block_warning(block: int, records: Mapping[int, object], z_max: float,
                          "(see the set-up warning)")
     return (f"warning: block {block}: outside the model's range: " + "; ".join(parts)
             + " (docs/life.md, \"The model's range\")")
+
+
+def item_list(ids: Sequence[int], show: int = 12) -> str:
+    """'item 3', 'items 0, 1, 4' or 'items 0, 1, … and 40 more (42 items)'."""
+    ids = list(ids)
+    if len(ids) == 1:
+        return f"item {ids[0]}"
+    head = ", ".join(map(str, ids[:show]))
+    more = f", … and {len(ids) - show} more ({len(ids)} items)" if len(ids) > show else ""
+    return f"items {head}{more}"
+
+
+class RangeWarnings:
+    """The run log's warnings after each block (a :class:`~micropit_hpc.runner.Handler`):
+    once per item and limit, a block whose adaptive split stopped at ``life.max_splits``
+    before its wear or pit limit was met; and the block's one line on the model's range
+    (:func:`block_warning`). ``log`` prints on rank 0."""
+
+    def __init__(self, life, log):
+        self.log, self.life, self.study = log, life, None
+        why_wear = ("for a stable wear update" if life.wear_integration == "explicit" else
+                    "to follow the running-in in finer steps (the relaxed update keeps each "
+                    "step within the elastic relief of the contact spots)")
+        # (record field, limit, what one sub-block did, unit scale, key, why finer steps)
+        self.limits = (
+            ("wear_step", life.max_wear_fraction, "one sub-block's wear changed the surface "
+             "by up to {} × R_q", 1.0, "life.max_wear_fraction", why_wear),
+            ("pit_step", life.max_pit_step, "one sub-block newly pitted up to {} % of the "
+             "window", 100.0, "life.max_pit_step", "to follow the cascade of pits in finer "
+             "steps"))
+        self.warned: dict[str, set[int]] = {f[0]: set() for f in self.limits}
+
+    def start(self, study, blocks: int, start: int) -> None:
+        self.study = study
+
+    def progress(self, *args) -> None:
+        pass
+
+    def block(self, k: int, blocks: int, records) -> None:
+        for name, limit, did, scale, key, why in self.limits:
+            over = {iid: getattr(recs[-1], name) for iid, recs in records.items()
+                    if recs and iid not in self.warned[name]
+                    and getattr(recs[-1], name) > limit * (1 + 1e-9)}
+            if over:
+                self.warned[name].update(over)
+                worst = max(over, key=over.get)
+                self.log(f"warning: block {k}, {item_list(sorted(over))}: "
+                         f"{did.format(f'{scale * over[worst]:.3g}')} (item {worst}), above "
+                         f"{key} = {limit:g}; the split stopped at life.max_splits = "
+                         f"{self.life.max_splits}. Raise max_splits (or lower life.block_M) "
+                         f"{why} (docs/life.md)")
+        st = self.study
+        line = block_warning(k, {iid: r[-1] for iid, r in records.items() if r}, st.z_max,
+                             not st.window_problems)
+        if line:
+            self.log(line)
+
+    def finish(self, outcome) -> None:
+        pass

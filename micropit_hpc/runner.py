@@ -26,7 +26,7 @@ from __future__ import annotations
 import json
 import time
 import uuid
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -62,7 +62,7 @@ from micropit_hpc.state import (
 )
 from micropit_hpc.study import Study
 
-__all__ = ["RunOptions", "RunOutcome", "run_study"]
+__all__ = ["Checkpoints", "Handler", "RunOptions", "RunOutcome", "run_study"]
 
 CHECKPOINT_DIR = "checkpoints"
 #: The wall-time budget reserves this many times the longest block so far for the next one.
@@ -300,17 +300,71 @@ def _inspect(path: Path, study: Study, scene: Scene, force: bool,
     return from_root(study.comm, inspect, CheckpointError, world=True)
 
 
+class Handler:
+    """A part attached to the study loop (:func:`run_study`): progress, warnings, results.
+    Every method is called on every rank at the same point (so a handler may make collective
+    calls, on every rank alike); the defaults do nothing.
+
+    ``start(study, blocks, start)``: before the first block (``start`` blocks already done by
+    a restart); ``progress(k, item, i, n, cycles_done, block_cycles, sub_block, step,
+    steps)``: after every time step inside block ``k``, on the ranks of the group that runs
+    ``item`` (the i-th of its n items); ``block(k, blocks, records)``: after block ``k`` and
+    its checkpoint, with every item's records so far; ``finish(outcome)``: once the loop ends
+    (done or stopped at a block boundary), not after an error."""
+
+    def start(self, study: Study, blocks: int, start: int) -> None:
+        pass
+
+    def progress(self, k: int, item, i: int, n: int, cycles_done: float,
+                 block_cycles: float, sub_block: int, step: int, steps: int) -> None:
+        pass
+
+    def block(self, k: int, blocks: int, records: dict[int, list[BlockRecord]]) -> None:
+        pass
+
+    def finish(self, outcome: RunOutcome) -> None:
+        pass
+
+
+class Checkpoints(Handler):
+    """The loop's own handler: a checkpoint every ``every`` blocks and after the last
+    (:func:`~micropit_hpc.io.checkpoint.write_checkpoint`), and one for a stop
+    (:meth:`ensure`)."""
+
+    def __init__(self, study: Study, opts: RunOptions, records, attrs: dict, start: int):
+        self.study, self.records, self.attrs = study, records, attrs
+        self.directory, self.every, self.keep = (Path(opts.out) / CHECKPOINT_DIR,
+                                                 opts.checkpoint_every, opts.keep)
+        self.specs = _field_specs(study)
+        self.written, self.seconds = start, 0.0   # the last block written, its time
+
+    def write(self, k: int) -> Path:
+        t0 = time.perf_counter()
+        with stage("checkpoint"):
+            path = write_checkpoint(self.directory, self.study.comm, k, len(self.study.items),
+                                    self.specs, _pieces(self.study, self.records), self.attrs,
+                                    keep=self.keep)
+        self.written, self.seconds = k, time.perf_counter() - t0
+        return path
+
+    def block(self, k: int, blocks: int, records) -> None:
+        if k % self.every == 0 or k == blocks:
+            self.write(k)
+
+    def ensure(self, k: int) -> None:
+        """Block ``k`` checkpointed (before a stop)."""
+        if self.written != k:
+            self.write(k)
+
+
 def run_study(scene: Scene, opts: RunOptions, comm,
               log: Callable[[str], None] = lambda s: None,
-              on_block: Callable[[int, int, dict], None] | None = None,
-              on_start: Callable[[int, int, Study], None] | None = None,
+              handlers: Sequence[Handler] = (),
               control: StopControl | None = None,
-              on_progress: Callable[..., None] | None = None,
               plan: Plan | None = None) -> RunOutcome:
-    """Run (or resume) every work item of ``scene`` on ``comm`` (collective). ``on_start``
-    is called on every rank before the first block with (blocks, blocks already done, study),
-    ``on_block`` after each block with (block, blocks, records), ``on_progress`` inside
-    blocks (:meth:`Study.run_block`). ``control``: the stop control to ask at each block
+    """Run (or resume) every work item of ``scene`` on ``comm`` (collective), telling the
+    ``handlers`` (:class:`Handler`) as it goes; the checkpoints are the loop's own handler
+    (:class:`Checkpoints`), told first. ``control``: the stop control to ask at each block
     boundary (default: one made here from ``opts``, closed at the end; the CLI passes its
     own, which keeps the signals handled until the results are written). ``plan``: the
     scene's checked :class:`~micropit_hpc.plan.Plan` (default: made here)."""
@@ -340,49 +394,50 @@ def run_study(scene: Scene, opts: RunOptions, comm,
             start, records = _read_state(latest, study)
         log(f"restarted from {latest} (block {start} of {study.blocks}, "
             f"{'round robin' if costs is None else 'longest-first by last block time'})")
-    specs = _field_specs(study)
-    attrs = _attrs(study, scene, run_id, surfaces) if rank0 else {}
+    ckpt = Checkpoints(study, opts, records, _attrs(study, scene, run_id, surfaces)
+                       if rank0 else {}, start)
+    attached = (ckpt, *handlers)
 
-    def checkpoint(k: int) -> Path:
-        with stage("checkpoint"):
-            return write_checkpoint(ckdir, comm, k, len(study.items), specs,
-                                    _pieces(study, records), attrs, keep=opts.keep)
+    def progress(*args) -> None:
+        for h in attached:
+            h.progress(*args)
 
-    done, reason, written = start, None, start
-    if on_start is not None:
-        on_start(study.blocks, start, study)
+    for h in attached:
+        h.start(study, study.blocks, start)
     own = control is None
     if own:
         control = StopControl(comm, opts.stop_file, opts.max_wall_s)
-    longest, ckpt_s = 0.0, 0.0   # the longest block (with its checkpoint), the last checkpoint
+    done, outcome = start, None
+    longest = 0.0   # the longest block so far, with its checkpoint
     try:
         for k in range(start + 1, study.blocks + 1):
             t0 = time.perf_counter()
             with stage("blocks"):
-                for iid, rec in study.run_block(k, on_progress).items():
+                for iid, rec in study.run_block(k, progress).items():
                     records[iid].append(rec)
             done = k
-            if k % opts.checkpoint_every == 0 or k == study.blocks:
-                t1 = time.perf_counter()
-                checkpoint(k)
-                written, ckpt_s = k, time.perf_counter() - t1
-            if on_block is not None:
-                on_block(k, study.blocks, records)
+            for h in attached:
+                h.block(k, study.blocks, records)
             if k == study.blocks:
                 break
             longest = max(longest, time.perf_counter() - t0)
             # the next block may be longer than any so far (adaptive splits): 20 % margin,
             # plus a checkpoint for the stop itself
-            reason = control.reason(next_block_s=NEXT_BLOCK_MARGIN * longest + ckpt_s)
+            reason = control.reason(next_block_s=NEXT_BLOCK_MARGIN * longest + ckpt.seconds)
             if reason:
-                if written != k:
-                    checkpoint(k)
+                ckpt.ensure(k)
                 log(f"stopping after block {k} of {study.blocks}: {reason}; checkpoint "
                     f"{ckdir / checkpoint_name(k)} written; continue with --restart")
-                return RunOutcome("stopped", done, start, records, reason, study, run_id)
+                outcome = RunOutcome("stopped", done, start, records, reason, study, run_id)
+                break
+        if outcome is None:
+            if start == study.blocks:
+                log(f"the checkpoint is already at the last block ({start}); writing the "
+                    "results")
+            outcome = RunOutcome("done", done, start, records, None, study, run_id)
+        for h in attached:
+            h.finish(outcome)
     finally:
         if own:
             control.close()
-    if start == study.blocks:
-        log(f"the checkpoint is already at the last block ({start}); writing the results")
-    return RunOutcome("done", done, start, records, None, study, run_id)
+    return outcome

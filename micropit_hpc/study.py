@@ -13,7 +13,7 @@ item they equal one rank's to round-off.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -211,6 +211,19 @@ class Study:
                                   for i in (1, 2))
         hc = self.base.conditions[item.position - 1].hc
         return float(iso_lambda_gf(hc, *self._ra[key]))
+
+    #: the columns of :meth:`summary`
+    summary_columns = SUMMARY_COLUMNS
+
+    def summary(self, records: Mapping[int, Sequence[BlockRecord]]) -> list[tuple]:
+        """The rows of summary.csv (:data:`SUMMARY_COLUMNS`) of every item, in item order."""
+        rows = []
+        for it in self.items:
+            rows += summary_rows(it, self.base.conditions[it.position - 1], records[it.id],
+                                 self.item_lambda(it), lambda_gf=self.item_lambda_gf(it),
+                                 lambda_gfp=self.method_b.lambda_gfp, z_max=self.z_max,
+                                 window_ok=not self.window_problems)
+        return rows
 
     def gather_maps(self) -> dict[int, dict[str, np.ndarray]]:
         """The final maps of every item on world rank 0 (None elsewhere)."""

@@ -12,9 +12,10 @@ import numpy as np
 import pytest
 from test_life import tiny_doc
 
-from micropit_hpc.cli import _item_list, main
+from micropit_hpc.cli import main
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.plan import work_items
+from micropit_hpc.regime import item_list
 from micropit_hpc.scene import scene_from_dict
 from micropit_hpc.study import SUMMARY_COLUMNS, Study
 
@@ -100,9 +101,9 @@ def test_run_writes_summary_and_results(tmp_path, capsys):
 
 
 def test_a_warning_names_few_items_and_counts_many():
-    assert _item_list([3]) == "item 3"
-    assert _item_list([0, 4]) == "items 0, 4"
-    assert _item_list(list(range(20)), show=3) == "items 0, 1, 2, … and 17 more (20 items)"
+    assert item_list([3]) == "item 3"
+    assert item_list([0, 4]) == "items 0, 4"
+    assert item_list(list(range(20)), show=3) == "items 0, 1, 2, … and 17 more (20 items)"
 
 
 def test_bad_position_is_a_clear_error(tmp_path, capsys):

@@ -33,8 +33,8 @@ from micropit_hpc.io.hdf5 import atomic_h5, h5py_module, scene_json
 from micropit_hpc.regime import block_flags
 from micropit_hpc.state import BODY_FIELDS, RECORD_UNITS
 
-__all__ = ["MAP_UNITS", "Grid", "MethodB", "Results", "ResultsError", "Table", "load_results",
-           "load_summary", "write_results", "write_summary", "write_xdmf"]
+__all__ = ["MAP_UNITS", "Grid", "MethodB", "Results", "ResultsError", "ResultsHandler", "Table",
+           "load_results", "load_summary", "write_results", "write_summary", "write_xdmf"]
 
 #: Unit of each final map (``maps/item_NNNNN/bodyB/<name>``): the stored state of a body
 #: (:data:`~micropit_hpc.state.BODY_FIELDS`) and the damage's worst layer per column.
@@ -161,6 +161,57 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
     except OSError as e:
         raise MicropitError(f"cannot write {path}: {e.strerror or e}") from None
     return path
+
+
+class ResultsHandler:
+    """Writes a run's results when its loop ends (a :class:`~micropit_hpc.runner.Handler`):
+    the final maps gathered from every group (collective), then on world rank 0 summary.csv
+    and results.h5 (+ results.xdmf) staged and published into ``out`` with its manifest
+    (:mod:`micropit_hpc.io.outdir`), complete or, after a stop, partial. ``meta``: attributes
+    of results.h5 besides the run's status; ``t0``: the run's start (``time.perf_counter``)
+    for its wall time; ``log`` prints on rank 0."""
+
+    def __init__(self, out: str | Path, meta: Mapping[str, object], t0: float, log):
+        self.out, self.meta, self.t0, self.log = Path(out), dict(meta), t0, log
+
+    def start(self, study, blocks: int, start: int) -> None:
+        pass
+
+    def progress(self, *args) -> None:
+        pass
+
+    def block(self, k: int, blocks: int, records) -> None:
+        pass
+
+    def finish(self, outcome) -> None:
+        import time
+
+        from micropit_hpc.io import outdir
+        from micropit_hpc.parallel.petsc import stage
+
+        study, out = outcome.study, self.out
+        with stage("results"):
+            maps = study.gather_maps()
+            if study.comm.rank != 0:
+                return
+            meta = {**self.meta, "wall_s": time.perf_counter() - self.t0,
+                    "status": outcome.status, "blocks_done": outcome.blocks_done,
+                    "restarted_from_block": outcome.start_block}
+            staged = outdir.staging(out)
+            write_summary(staged / "summary.csv", study.summary_columns,
+                          study.summary(outcome.records))
+            write_results(staged / "results.h5", study, outcome.records, maps, meta)
+            try:
+                manifest = outdir.publish(out, ("summary.csv", "results.h5", "results.xdmf"), {
+                    "status": outcome.status, "blocks_done": outcome.blocks_done,
+                    "blocks": study.blocks, "run_id": outcome.run_id})
+            except OSError as e:
+                raise MicropitError(f"cannot publish the results in {out}: "
+                                    f"{e.strerror or e}") from None
+            what = ("results" if outcome.status == "done"
+                    else f"partial results (block {outcome.blocks_done} of {study.blocks})")
+            self.log(f"wrote {what}: {out / 'summary.csv'} and {out / 'results.h5'} "
+                     f"({manifest}) in {time.perf_counter() - self.t0:.1f} s")
 
 
 def write_xdmf(xdmf: Path, h5: Path, nx: int, ny: int, nz: int,
