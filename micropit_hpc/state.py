@@ -66,6 +66,17 @@ class BodyState:
     pit_depth: np.ndarray = state_field("m", "cumulative depth lost to micropits")
     rq0: float = field(default=MISSING)
 
+    @classmethod
+    def fresh(cls, heights: np.ndarray, layered_shape: tuple[int, ...],
+              rq0: float) -> BodyState:
+        """A body before its first cycle: the surface ``heights`` (copied) of R_q ``rq0``,
+        every other declared array zero (``layered_shape``: this rank's part of a layered
+        field)."""
+        arrays = {f.name: np.zeros(layered_shape if f.layered else heights.shape,
+                                   dtype=bool if f.dtype == "u1" else float)
+                  for f in BODY_FIELDS if f.name != "heights"}
+        return cls(heights=heights.copy(), **arrays, rq0=rq0)
+
     @property
     def Ap(self) -> float:
         """Micropitted area fraction A_p [%] (docs/model.md §4.5)."""
