@@ -214,6 +214,21 @@ class ResultsHandler:
                      f"({manifest}) in {time.perf_counter() - self.t0:.1f} s")
 
 
+_STATE_FIELDS = {f.name: f for f in BODY_FIELDS}
+
+
+def _layered(name: str) -> bool:
+    """Whether the map ``bodyB/<field>`` is a layered state field (N_z, n_x, n_y)."""
+    f = _STATE_FIELDS.get(name.split("/")[-1])
+    return f is not None and f.layered
+
+
+def _map_dtype(name: str) -> str:
+    """The stored dtype of the map ``bodyB/<field>`` ("f8" for derived maps)."""
+    f = _STATE_FIELDS.get(name.split("/")[-1])
+    return "f8" if f is None else f.dtype
+
+
 def write_xdmf(xdmf: Path, h5: Path, nx: int, ny: int, nz: int,
                maps: Mapping[int, Sequence[str]]) -> Path:
     """An XDMF 3 file describing the final maps of ``h5`` (relative reference, so the two
@@ -233,8 +248,8 @@ def write_xdmf(xdmf: Path, h5: Path, nx: int, ny: int, nz: int,
            '<Xdmf Version="3.0">', '  <Domain>']
     for iid, names in maps.items():
         base = f"/maps/item_{iid:05d}"
-        surf = [n for n in names if not n.endswith("/damage")]
-        vol = [n for n in names if n.endswith("/damage")]
+        surf = [n for n in names if not _layered(n)]
+        vol = [n for n in names if _layered(n)]
         out += [f'    <Grid Name="item_{iid:05d}_surface" GridType="Uniform">',
                 f'      <Topology TopologyType="2DRectMesh" Dimensions="{nx} {ny}"/>',
                 '      <Geometry GeometryType="VXVY">',
@@ -242,8 +257,7 @@ def write_xdmf(xdmf: Path, h5: Path, nx: int, ny: int, nz: int,
                 "        " + item(str(nx), "f8", "/grid/x"),
                 "      </Geometry>"]
         for n in surf:
-            dtype = "u1" if n.endswith("/pitted") else "f8"
-            unit = MAP_UNITS[n.split("/")[-1]]
+            dtype, unit = _map_dtype(n), MAP_UNITS[n.split("/")[-1]]
             out += [f'      <Attribute Name="{n.replace("/", "_")} [{unit}]" '
                     'AttributeType="Scalar" Center="Node">',
                     "        " + item(f"{nx} {ny}", dtype, f"{base}/{n}"),
@@ -258,9 +272,9 @@ def write_xdmf(xdmf: Path, h5: Path, nx: int, ny: int, nz: int,
                     "        " + item(str(nz), "f8", "/grid/z"),
                     "      </Geometry>"]
             for n in vol:
-                out += [f'      <Attribute Name="{n.replace("/", "_")} [1]" '
-                        'AttributeType="Scalar" Center="Node">',
-                        "        " + item(f"{nz} {nx} {ny}", "f8", f"{base}/{n}"),
+                out += [f'      <Attribute Name="{n.replace("/", "_")} '
+                        f'[{MAP_UNITS[n.split("/")[-1]]}]" AttributeType="Scalar" Center="Node">',
+                        "        " + item(f"{nz} {nx} {ny}", _map_dtype(n), f"{base}/{n}"),
                         "      </Attribute>"]
             out.append("    </Grid>")
     out += ["  </Domain>", "</Xdmf>", ""]
