@@ -69,7 +69,7 @@ def main() -> None:
 
 def _lam(run: ItemRun, body: int, n_micro: float) -> str:
     """The counterface's λ_c [µm] that gave body ``body`` its n_μ (n_μ = 2b|u1 − u2|/(u_i λ_c),
-    MODEL.md §4.4)."""
+    docs/model.md §4.4)."""
     c = run.cycle.cond
     u_i = c.u1 if body == 1 else c.u2
     return "∞" if n_micro == 0 else f"{2e6 * c.b * abs(c.u1 - c.u2) / (u_i * n_micro):.1f}"

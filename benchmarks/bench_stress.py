@@ -1,4 +1,4 @@
-"""Benchmark of the micro stress field: ``HalfSpaceStress.stresses`` (MODEL.md §4.2).
+"""Benchmark of the micro stress field: ``HalfSpaceStress.stresses`` (docs/model.md §4.2).
 
 Times one call (6·N_z inverse real 2-D FFTs plus the kernel build; the 3 forward FFTs of the
 tractions are not included; "ms per inverse FFT" is the call's time / (6·N_z), kernel build

@@ -2,7 +2,7 @@
 # =================================================================================================
 # micropit_hpc on PBS (PBS Pro / OpenPBS; Torque works the same way): a life simulation that
 # checkpoints before the wall-time limit and resubmits itself until it is finished.
-# (docs/jobs.md explains the whole mechanism; HPC.md §3 "Long jobs" the design.)
+# (docs/jobs.md explains the whole mechanism; docs/hpc.md §3 "Long jobs" the design.)
 #
 # Submit from the repository root; PBS passes no script arguments, so the scene is a variable:
 #     qsub -v SCENE=scenes/gear_z23.toml jobs/pbs.sh
@@ -10,7 +10,7 @@
 #
 # What happens:
 #   1. `micropit check-env --expect-ranks N` on all N ranks (a wrong MPI library, a serial h5py or
-#      a missing petsc4py fails here, in seconds; HPC.md trap 5).
+#      a missing petsc4py fails here, in seconds; docs/hpc.md §1 trap 5).
 #   2. PBS sends no early warning before the wall-time limit (only SIGTERM, then SIGKILL a few
 #      seconds later). So the run gets a budget instead: --max-wall = walltime - MARGIN_S - the
 #      time this script has used so far. At each block boundary the ranks stop when the next
@@ -63,7 +63,7 @@ die() { log "error: $*"; exit 2; }
 root=${MICROPIT_ROOT:-${PBS_O_WORKDIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)}}
 [[ -d "$root/micropit_hpc" ]] || die "no micropit_hpc in $root: submit from the repository root or set MICROPIT_ROOT"
 cd "$root"
-# Workstation/container settings of Open MPI and H5PY_ALWAYS_USE_MPI=1 (HPC.md traps 2, 6).
+# Workstation/container settings of Open MPI and H5PY_ALWAYS_USE_MPI=1 (docs/hpc.md §1 traps 2, 6).
 source scripts/mpi-env.sh
 # The venv made by scripts/setup.sh (run it once on a login node before submitting).
 py=${MICROPIT_PYTHON:-$root/.venv/bin/python}

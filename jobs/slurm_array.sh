@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # =================================================================================================
 # micropit_hpc on Slurm: a job array of life simulations that checkpoint and requeue themselves.
-# (docs/jobs.md explains the whole mechanism; HPC.md §3 "Long jobs" the design.)
+# (docs/jobs.md explains the whole mechanism; docs/hpc.md §3 "Long jobs" the design.)
 #
 # Submit from the repository root (the job finds the code through $SLURM_SUBMIT_DIR):
 #
@@ -14,7 +14,7 @@
 #
 # What happens in each array task:
 #   1. `micropit check-env --expect-ranks N` on all N ranks: a wrong MPI library, a serial h5py
-#      or a missing petsc4py fails here, in seconds, not hours into the run (HPC.md trap 5).
+#      or a missing petsc4py fails here, in seconds, not hours into the run (docs/hpc.md §1 trap 5).
 #   2. `micropit run SCENE --out DIR --restart --stop-file DIR/STOP`: --restart continues from
 #      the newest complete checkpoint in DIR (a fresh start when there is none).
 #   3. The run gets a wall-time budget by default: the job's end time (squeue, exported as
@@ -67,7 +67,7 @@ die() { log "error: $*"; exit 2; }
 root=${MICROPIT_ROOT:-${SLURM_SUBMIT_DIR:-$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)}}
 [[ -d "$root/micropit_hpc" ]] || die "no micropit_hpc in $root: submit from the repository root or set MICROPIT_ROOT"
 cd "$root"
-# Workstation/container settings of Open MPI and H5PY_ALWAYS_USE_MPI=1 (HPC.md traps 2, 6).
+# Workstation/container settings of Open MPI and H5PY_ALWAYS_USE_MPI=1 (docs/hpc.md §1 traps 2, 6).
 source scripts/mpi-env.sh
 # The venv made by scripts/setup.sh (run it once on a login node before submitting).
 py=${MICROPIT_PYTHON:-$root/.venv/bin/python}

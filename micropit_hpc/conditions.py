@@ -1,6 +1,6 @@
 """Macro contact conditions at each position of a study: the smooth contact a cycle starts from.
 
-Scene -> one :class:`ContactConditions` per position (MODEL.md §2): geometry and load (gear
+Scene -> one :class:`ContactConditions` per position (docs/model.md §2): geometry and load (gear
 kinematics and load sharing, or the disc rig's settings), Hertz contact, surface speeds, central
 film thickness and specific film thickness Λ.
 """
@@ -60,7 +60,7 @@ class ContactConditions:
 
     @property
     def S(self) -> float:
-        """Slide-roll ratio S = (u1 - u2)/ū (MODEL.md §1)."""
+        """Slide-roll ratio S = (u1 - u2)/ū (docs/model.md §1)."""
         return self.u_s / self.u_mean
 
 
@@ -129,7 +129,8 @@ def gear_positions(scene: Scene, mesh: GearMesh) -> np.ndarray:
 
 
 def gear_conditions(scene: Scene, mesh: GearMesh, rho1) -> tuple[ContactConditions, ...]:
-    """Conditions at points ρ1 of the path of contact of a gear scene (MODEL.md §2.1, §2.2, §2.4).
+    """Conditions at points ρ1 of the path of contact of a gear scene (docs/model.md §2.1,
+    §2.2, §2.4).
 
     w = X(ρ1) T1/(r_b1 b_w); R = ρ1 ρ2/(ρ1 + ρ2); u_i = ω_i ρ_i; line-contact Hertz; film from
     the scene's film model. With ``gear.slide_roll_imposed`` the speeds become ū(1 ± S/2) with
@@ -167,7 +168,7 @@ def gear_conditions(scene: Scene, mesh: GearMesh, rho1) -> tuple[ContactConditio
 
 
 def disc_conditions(scene: Scene) -> tuple[ContactConditions, ...]:
-    """Conditions of a disc rig, one per slide-roll ratio (MODEL.md §2.3):
+    """Conditions of a disc rig, one per slide-roll ratio (docs/model.md §2.3):
     u1 = ū(1 + S/2), u2 = ū(1 - S/2); line or elliptical Hertz from the radii."""
     disc = scene.disc
     E_prime, E_star = moduli(scene)

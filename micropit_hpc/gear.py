@@ -1,6 +1,6 @@
 """External involute spur gear pair: path of contact, kinematics, load sharing, flank location.
 
-MODEL.md §2.1. Gear 1 (the pinion, body 1) drives. A point of the path of contact is given by
+docs/model.md §2.1. Gear 1 (the pinion, body 1) drives. A point of the path of contact is given by
 ρ1, its distance along the line of action from T1 (the tangency point of the line of action with
 the base circle of gear 1); its radius of curvature on gear 1 is ρ1 and on gear 2 ρ2 = g - ρ1.
 """
@@ -87,7 +87,7 @@ class GearGeometry:
 
 @dataclass(frozen=True)
 class GearMesh:
-    """The path of contact of a gear pair (MODEL.md §2.1), all points as ρ1 [m].
+    """The path of contact of a gear pair (docs/model.md §2.1), all points as ρ1 [m].
 
     A: start of active profile (ρ1 = g - ρ_a2); B = E - p_b: lowest point of single contact;
     C = r_b1 tan α_w: pitch point; D = A + p_b: highest point of single contact; E = ρ_a1: tip of
@@ -190,7 +190,7 @@ class GearMesh:
         return np.asarray(phi1, dtype=float) * self.rb1
 
     def radial_position(self, rho1):
-        """Tooth-centre radial coordinate of the contact point on gear 1 (MODEL.md §2.1):
+        """Tooth-centre radial coordinate of the contact point on gear 1 (docs/model.md §2.1):
 
         y = r cos ψ(r), r = √(r_b1² + ρ1²), ψ(r) = s/d + inv α - inv α_r, cos α_r = r_b1/r,
         s = m (π/2 + 2 x1 tan α) the reference tooth thickness, d = m z1.
@@ -264,7 +264,7 @@ class GearMesh:
         return rho1 * (self.g - rho1) / self.g
 
     def surface_speeds(self, rho1, omega1: float):
-        """u_i = ω_i ρ_i with ω2 = ω1 z1/z2 (MODEL.md §2.1)."""
+        """u_i = ω_i ρ_i with ω2 = ω1 z1/z2 (docs/model.md §2.1)."""
         geo = self.geometry
         u1 = omega1 * np.asarray(rho1, dtype=float)
         u2 = omega1 * geo.z1 / geo.z2 * self.rho2(rho1)
@@ -277,7 +277,7 @@ class GearMesh:
         return (rho1 >= self.B - tol) & (rho1 <= self.D + tol)
 
     def load_share(self, rho1, model: str = "linear", accuracy_grade: int = 7):
-        """Load-sharing factor X(ρ1) of the pair in contact at ρ1 (MODEL.md §2.1).
+        """Load-sharing factor X(ρ1) of the pair in contact at ρ1 (docs/model.md §2.1).
 
         ``linear``: 0 → 1 over A-B, 1 over B-D, 1 → 0 over D-E (tip relief designed for smooth
         meshing); the two pairs in the double-pair zones share the load exactly (sum 1).

@@ -1,6 +1,6 @@
 """Smooth (Hertz) contact of two elastic bodies: line contact and elliptical point contact.
 
-Conventions (MODEL.md §1, §2.2): 2/E' = (1-ν1²)/E1 + (1-ν2²)/E2 and E* = E'/2; pressure is
+Conventions (docs/model.md §1, §2.2): 2/E' = (1-ν1²)/E1 + (1-ν2²)/E2 and E* = E'/2; pressure is
 positive in compression; x is the rolling direction, y across it.
 """
 
@@ -15,12 +15,12 @@ from scipy.special import ellipe, ellipkm1
 
 
 def reduced_modulus(E1: float, nu1: float, E2: float, nu2: float) -> float:
-    """E' from 2/E' = (1-ν1²)/E1 + (1-ν2²)/E2 (MODEL.md §1). E* = E'/2."""
+    """E' from 2/E' = (1-ν1²)/E1 + (1-ν2²)/E2 (docs/model.md §1). E* = E'/2."""
     return 2.0 / ((1.0 - nu1**2) / E1 + (1.0 - nu2**2) / E2)
 
 
 def line_contact(w, R, E_star):
-    """Hertz line contact: semi-width b and peak pressure p0 (MODEL.md §2.2).
+    """Hertz line contact: semi-width b and peak pressure p0 (docs/model.md §2.2).
 
     b = √(4 w R / (π E*)),  p0 = 2 w / (π b) = √(w E* / (π R)).
 

@@ -1,5 +1,5 @@
 """Micropits: detachment of failed material, and the damage column that moves with the surface
-(MODEL.md §4.5–§4.6).
+(docs/model.md §4.5–§4.6).
 
 Damage D(z_k, x, y) is kept on the stress layers z_k, measured below the local surface of the
 body (the half-space model puts every column's surface at z = 0). When material leaves the

@@ -1,4 +1,4 @@
-"""``micropit run``: a study's blocks with checkpoints, restart and clean stops (HPC.md §3).
+"""``micropit run``: a study's blocks with checkpoints, restart and clean stops (docs/hpc.md §3).
 
 Per block: every group runs its items (:class:`~micropit_hpc.study.Study`), the records are
 gathered, a checkpoint is written (every ``checkpoint_every`` blocks and after the last), and

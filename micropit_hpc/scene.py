@@ -217,7 +217,7 @@ class HertzTable:
     E_star: float | None = setting(
         "E_star_GPa", "float", "Contact modulus E* used in the Hertz formulas only "
         "(the film keeps the materials' E'). Default: E'/2 from the bodies. The paper's Tables "
-        "3 and 7 use 210 (Young's modulus in place of E*); see MODEL.md §2.5.", "GPa", GPA,
+        "3 and 7 use 210 (Young's modulus in place of E*); see docs/model.md §2.5.", "GPa", GPA,
         default=None, lo=0, hi=1e4, lo_open=True)
 
 
@@ -470,7 +470,7 @@ class WindowSpec:
 
 @dataclass(frozen=True)
 class LubricationSpec:
-    """Settings of the contact model per time step (MODEL.md §4.1), SI."""
+    """Settings of the contact model per time step (docs/model.md §4.1), SI."""
 
     model: str = setting(
         "model", "str", "`smooth` (no roughness: p = p̄), `dry` (elastic–perfectly-"
@@ -505,7 +505,7 @@ class LubricationSpec:
     combine: str = setting(
         "combine", "str", "`contact`: the dry contact acts on the lubricated "
         "clearance; `max_amplitude`: keep per Fourier mode the larger clearance amplitude of "
-        "the dry and the lubricated solutions (MODEL.md §4.1 step 4 as printed; for "
+        "the dry and the lubricated solutions (docs/model.md §4.1 step 4 as printed; for "
         "comparison).", default="contact", choices=("contact", "max_amplitude"))
     tol: float = setting(
         "tolerance", "float", "Relative residual at which the contact solver stops.",
@@ -520,7 +520,7 @@ class LubricationSpec:
 
 @dataclass(frozen=True)
 class StressSpec:
-    """Depth layers of the stress field (MODEL.md §4.2); ``depth`` in units of b_ref."""
+    """Depth layers of the stress field (docs/model.md §4.2); ``depth`` in units of b_ref."""
 
     layers: int = setting(
         "layers", "int", "Depth layers N_z from the surface to `depth_b`.",
@@ -536,7 +536,7 @@ class StressSpec:
 
 @dataclass(frozen=True)
 class FatigueSpec:
-    """Dang Van, S–N and counting settings (MODEL.md §4.3–§4.4), SI."""
+    """Dang Van, S–N and counting settings (docs/model.md §4.3–§4.4), SI."""
 
     counting: str = setting(
         "counting", "str", "`sliding`: one macro cycle (the smooth Hertz path) plus "
@@ -577,7 +577,7 @@ class FatigueSpec:
 
 @dataclass(frozen=True)
 class WearSpec:
-    """Archard wear (MODEL.md §4.6): coefficients k_lub [s] and the solid-contact factor."""
+    """Archard wear (docs/model.md §4.6): coefficients k_lub [s] and the solid-contact factor."""
 
     k_lub: tuple[float, ...] = setting(
         "k_lub_s", "floats", "Wear coefficients k_lub, one set of work items each "
@@ -589,7 +589,7 @@ class WearSpec:
 
 @dataclass(frozen=True)
 class LifeSpec:
-    """Blocks of the life simulation (MODEL.md §5), in cycles."""
+    """Blocks of the life simulation (docs/model.md §5), in cycles."""
 
     cycles: float = setting(
         "cycles_M", "float", "Load cycles to simulate, in millions.", "Mcycles", 1e6,
@@ -622,7 +622,7 @@ class LifeSpec:
         "carry no pressure and no traction; the contact, film balance and peak spacing are "
         "solved on the surface around it (the heights, R_q and wear outputs still drop by "
         "the pit depth); `geometric`: the pitted heights enter the clearance as a step "
-        "(MODEL.md §4.5 read literally; a one-cell step of microns is outside what the "
+        "(docs/model.md §4.5 read literally; a one-cell step of microns is outside what the "
         "small-slope half-space and the linearised micro-EHL represent and sets off a "
         "cascade of failures around every pit, docs/life.md).", default="unloaded",
         choices=("unloaded", "geometric"))
@@ -631,7 +631,7 @@ class LifeSpec:
         "integrated [choice]. `relaxed`: the solid-contact part of the Archard rate decays as "
         "the wear relieves the pressure of each contact spot (lowering a spot by δ lowers its "
         "pressure by δ/K₀, K₀ the self-compliance of a grid cell), integrated exactly over "
-        "the sub-block; the film part stays explicit; `explicit`: n·Δh, MODEL.md §4.6 as "
+        "the sub-block; the film part stays explicit; `explicit`: n·Δh, docs/model.md §4.6 as "
         "written, which digs contact spots many R_q deep when the sub-block is much longer "
         "than the few thousand cycles their wear takes to relieve them (docs/life.md).",
         default="relaxed", choices=("relaxed", "explicit"))
@@ -686,7 +686,7 @@ work items of a study are positions × `wear.k_lub_s` × `roughness_scale` × `p
 """)
 
 _GEAR = section_of(GearTable, "gear", """
-An external involute spur gear pair (MODEL.md §2.1). Gear 1 is the pinion (body 1) and drives;
+An external involute spur gear pair (docs/model.md §2.1). Gear 1 is the pinion (body 1) and drives;
 gear 2 is the wheel (body 2). Give either `[gear]` with `[positions]`, or `[disc]`.
 """, children=("pinion", "wheel"))
 
@@ -706,7 +706,7 @@ def _body_section(path: str, which: str) -> Section:
 
 def _surface_section(path: str, which: str) -> Section:
     return section_of(SurfaceSpec, path, f"""
-Topography of body {which} on the simulation window (MODEL.md §3). Synthetic surfaces are
+Topography of body {which} on the simulation window (docs/model.md §3). Synthetic surfaces are
 generated from `window.seed` with R_q = `Rq_um` of the body; a measured map is read, detrended,
 made periodic, resampled to the window grid and checked against `Rq_um`.
 """)
@@ -724,38 +724,38 @@ Lubricant at the contact inlet temperature. Required unless `[film] hc_um` gives
 """)
 
 _WINDOW = section_of(WindowSpec, "window", """
-The computational window of one load cycle (MODEL.md §4): a periodic patch travelling with the
+The computational window of one load cycle (docs/model.md §4): a periodic patch travelling with the
 entrainment speed from the inlet to the outlet of the contact in `steps` time steps. The same
 window and roughness patch are used at every position of a study.
 """)
 
 _LUBRICATION = section_of(LubricationSpec, "lubrication", """
-Pressure and clearance of the rough surfaces at each time step (MODEL.md §4.1).
+Pressure and clearance of the rough surfaces at each time step (docs/model.md §4.1).
 """)
 
-_STRESS = section_of(StressSpec, "stress", "Subsurface stress layers (MODEL.md §4.2).")
+_STRESS = section_of(StressSpec, "stress", "Subsurface stress layers (docs/model.md §4.2).")
 
 _FATIGUE = section_of(FatigueSpec, "fatigue", """
-Dang Van stress, S–N line and cycle counting (MODEL.md §4.3–§4.4). A material point fails, and
+Dang Van stress, S–N line and cycle counting (docs/model.md §4.3–§4.4). A material point fails, and
 the material above it detaches as a micropit, when its Miner damage reaches 1.
 """)
 
 _WEAR = section_of(WearSpec, "wear", """
-Local mild wear, Archard's law with a dimensional coefficient (MODEL.md §4.6):
+Local mild wear, Archard's law with a dimensional coefficient (docs/model.md §4.6):
 Δh_i = ½ (|u_s|/H_i) (1/m) Σ_t k p per load cycle, k = f_w k_lub on solid contact and k_lub on
 the fluid film.
 """)
 
 _LIFE = section_of(LifeSpec, "life", """
-The life simulation (MODEL.md §5): blocks of ΔN load cycles, each evaluated on the current
+The life simulation (docs/model.md §5): blocks of ΔN load cycles, each evaluated on the current
 surfaces, with the adaptive split of a block.
 """)
 
 _FILM = section_of(FilmSpec, "film",
-                   "Central film thickness of the smooth contact (MODEL.md §2.4).")
+                   "Central film thickness of the smooth contact (docs/model.md §2.4).")
 
 _HERTZ = section_of(HertzTable, "hertz",
-                    "Overrides of the smooth Hertz contact (MODEL.md §2.2, §2.5).")
+                    "Overrides of the smooth Hertz contact (docs/model.md §2.2, §2.5).")
 
 _POSITIONS = section_of(PositionsTable, "positions", """
 Where along the path of contact of a gear pair to evaluate; give exactly one key. Points must lie

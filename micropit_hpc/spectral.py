@@ -6,7 +6,7 @@ has shape ``(nx, ny//2 + 1)`` (numpy's ``rfft2`` convention: forward unnormalise
 e^{+i(k_x x + k_y y)}, inverse divides by nx·ny). Wavenumbers are angular [rad/m].
 
 Transforms are planned once per shape (pyFFTW, one thread per rank) and cached; without pyFFTW
-the same API falls back to ``numpy.fft`` (about 10x slower, HPC.md §2). Grid sizes that factor
+the same API falls back to ``numpy.fft`` (about 10x slower, docs/hpc.md §2). Grid sizes that factor
 into 2, 3 and 5 only (5-smooth) are fastest; any size works.
 
 Planner: ``FFTW_ESTIMATE`` by default, because it chooses the same algorithm in every process,

@@ -1,10 +1,10 @@
-"""The paper's micropitting trends for gears (MODEL.md §7, trends 2–6) as checks on A_p tables.
+"""The paper's micropitting trends for gears (docs/model.md §7, trends 2–6) as checks on A_p tables.
 
 Morales-Espejel, Rycerz & Kadiric, Wear 398–399 (2018): Table 4 (A_p along the flank for k_lub =
 0, 1e-11 and 5e-11 s), Table 5 (S fixed at ±0.044) and Table 8 (z = 18 against z = 23). The
 absolute A_p depends on the roughness patch, which is not public, so only the trends are
 checked. Each check compares mean A_p (over roughness patches) and returns a :class:`Verdict`
-with the numbers it compared. How the words of MODEL.md §7 become inequalities:
+with the numbers it compared. How the words of docs/model.md §7 become inequalities:
 
 * *pitch point*: the position of smallest |S| (S = 0 on the paper's position 6);
 * *away from the pitch*: |S| > :data:`AWAY_FROM_PITCH` (0.1; the paper's positions 1–4, 8–11);

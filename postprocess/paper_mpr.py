@@ -1,4 +1,4 @@
-"""Compare `micropit run` results of the MPR scenes with the paper (MODEL.md §7 trends 1 and 7).
+"""Compare `micropit run` results of the MPR scenes with the paper (docs/model.md §7, trends 1, 7).
 
     python postprocess/paper_mpr.py mpr RUN_DIR      # scenes/paper_mpr.toml: A_p vs |S|
     python postprocess/paper_mpr.py table9 RUN_DIR   # scenes/paper_mpr_table9.toml: Λ scaling
@@ -137,7 +137,7 @@ def table9(run: Path, say=print) -> bool:
 
 
 def _cuts(without, with_wear) -> str:
-    """A_p without wear over A_p with wear, per Λ (informative; not a trend of MODEL.md §7)."""
+    """A_p without wear over A_p with wear, per Λ (informative; not a trend of docs/model.md §7)."""
     def cut(a, b):
         if a is None or b is None:
             return "—"

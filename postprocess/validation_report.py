@@ -1,5 +1,5 @@
 """The validation report: our numbers beside the paper's and one PASS/FAIL line for each trend of
-MODEL.md §7, from the runs of ``bash scripts/validate.sh``.
+docs/model.md §7, from the runs of ``bash scripts/validate.sh``.
 
     python postprocess/validation_report.py [--runs runs] [--out docs/validation]
 

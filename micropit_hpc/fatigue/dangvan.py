@@ -1,4 +1,4 @@
-"""Dang Van multiaxial fatigue: the mesoscopic shear of a stress path (MODEL.md §4.3).
+"""Dang Van multiaxial fatigue: the mesoscopic shear of a stress path (docs/model.md §4.3).
 
 For each material point, over the m samples of its stress history σ(t) (Dang Van, Cailletaud,
 Flavenot, Le Douaron & Lieurade 1989; in rolling contact [B11] Morales-Espejel & Brizmer 2011,
@@ -38,7 +38,7 @@ import numpy as np
 __all__ = ["ALPHA_DV", "DangVan", "dang_van", "deviator_vectors", "enclosing_ball",
            "mesoscopic_shear"]
 
-#: α_DV = 3(1/√3 − ½): the Dang Van hydrostatic sensitivity (MODEL.md §4.3).
+#: α_DV = 3(1/√3 − ½): the Dang Van hydrostatic sensitivity (docs/model.md §4.3).
 ALPHA_DV = 3.0 * (1.0 / math.sqrt(3.0) - 0.5)
 
 _R2, _R6 = math.sqrt(2.0), math.sqrt(6.0)
@@ -275,7 +275,7 @@ class DangVan:
 
 def dang_van(history: np.ndarray, alpha: float = ALPHA_DV, tol: float = 1e-12,
              chunk: int = 32768, keep_series: bool = False) -> DangVan:
-    """τ_DV of every material point of a stress history (MODEL.md §4.3, [B11] eq. 8–10).
+    """τ_DV of every material point of a stress history (docs/model.md §4.3, [B11] eq. 8–10).
 
     ``history`` has shape (m, 6, *points): m time samples of the Voigt stresses (xx, yy, zz, yz,
     xz, xy; tension positive) at every point. Points are processed in chunks of ``chunk`` to

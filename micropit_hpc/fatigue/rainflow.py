@@ -1,8 +1,9 @@
 """Rainflow cycle counting and Miner damage per load cycle, vectorised over material points.
 
-Used by ``fatigue.counting = "rainflow"`` (MODEL.md §4.4): every material point has a scalar history
-y(t) = τ̂(t) + α_DV σ_H(t) over the m time steps of one load cycle; the history is rainflow-counted
-and the Palmgren–Miner damage of its cycles is summed, d = Σ_c w_c / N(peak_c).
+Used by ``fatigue.counting = "rainflow"`` (docs/model.md §4.4): every material point has a
+scalar history y(t) = τ̂(t) + α_DV σ_H(t) over the m time steps of one load cycle; the history
+is rainflow-counted and the Palmgren–Miner damage of its cycles is summed,
+d = Σ_c w_c / N(peak_c).
 
 Counting
 --------
@@ -266,7 +267,7 @@ def rainflow_damage(
     *,
     chunk: int | None = None,
 ) -> np.ndarray:
-    """Miner damage per load cycle of many histories by rainflow counting (MODEL.md §4.4).
+    """Miner damage per load cycle of many histories by rainflow counting (docs/model.md §4.4).
 
     Parameters
     ----------

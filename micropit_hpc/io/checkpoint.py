@@ -1,4 +1,4 @@
-"""Checkpoints of the life simulation: one parallel HDF5 file per block (HPC.md §3).
+"""Checkpoints of the life simulation: one parallel HDF5 file per block (docs/hpc.md §3).
 
 Layout: one dataset per :class:`FieldSpec`, of shape ``(n_items, *shape)``, indexed by work-item
 id (never by rank), so a restart on any number of ranks is just another selection. The

@@ -1,4 +1,4 @@
-"""Subsurface stresses (MODEL.md §4.2): the micro field of the rough-contact tractions on a
+"""Subsurface stresses (docs/model.md §4.2): the micro field of the rough-contact tractions on a
 periodic window (:mod:`.halfspace`, App. A.1) and the macro field of the smooth Hertz contact
 (:mod:`.hertz_field`: line contact in closed form, App. A.2; elliptical contact by padded FFT).
 All stress blocks are float64 arrays of shape (6, ...) in Voigt order (xx, yy, zz, yz, xz, xy),

@@ -1,6 +1,6 @@
 """Subsurface stresses of an elastic half-space under periodic surface tractions (the micro field).
 
-MODEL.md §4.2 and Appendix A.1: for a surface mode e^{i(αx+βy)} with ζ = √(α²+β²) > 0 and
+docs/model.md §4.2 and Appendix A.1: for a surface mode e^{i(αx+βy)} with ζ = √(α²+β²) > 0 and
 E = e^{−ζz}, the stresses are closed-form in z (Boussinesq–Cerruti in the partial Fourier domain).
 With the angle factors a = α/ζ, b = β/ζ, t = ζz and
 
@@ -50,7 +50,7 @@ VOIGT = ("xx", "yy", "zz", "yz", "xz", "xy")
 def depth_layers(n_layers: int, z_max: float, spacing: str = "quadratic") -> np.ndarray:
     """Depths of the stress layers [m], z_0 = 0 (the surface) to z_{N−1} = z_max.
 
-    ``"quadratic"`` (MODEL.md §4.2 default, 15 layers to z_max = 0.25 b):
+    ``"quadratic"`` (docs/model.md §4.2 default, 15 layers to z_max = 0.25 b):
     z_k = z_max (k/(N_z−1))², dense near the surface where the rough-contact stresses live;
     ``"uniform"``: z_k = z_max k/(N_z−1). ``n_layers = 1`` gives the surface only.
     """
@@ -71,7 +71,7 @@ def depth_layers(n_layers: int, z_max: float, spacing: str = "quadratic") -> np.
 
 def _kernel_spectra(P, Tx, Ty, a, b, nu, A, B):
     """Fill the layer-independent spectra A_c, B_c (Voigt order, shape (6, *P.shape)) so that
-    σ̂_c(z) = e^{−ζz} A_c + ζz e^{−ζz} B_c (MODEL.md Appendix A.1, regrouped as in the module
+    σ̂_c(z) = e^{−ζz} A_c + ζz e^{−ζz} B_c (docs/model.md Appendix A.1, regrouped as in the module
     docstring). ``Ty`` may be None (no transverse traction). Works on any broadcastable slices;
     ``A`` and ``B`` must not alias the inputs."""
     a2 = a * a
@@ -127,7 +127,7 @@ class HalfSpaceStress:
     """Micro stress field of a half-space under the fluctuating part of periodic surface
     tractions, on the depth layers ``z`` of a periodic :class:`~micropit_hpc.spectral.Grid`.
 
-    MODEL.md §4.2 and Appendix A.1 (kernels of [T03] in the partial Fourier domain; checked by
+    docs/model.md §4.2 and Appendix A.1 (kernels of [T03] in the partial Fourier domain; checked by
     equilibrium, boundary values, the A.1 trace relation, the Boussinesq point-load limit
     (Johnson 1985 eq. 3.20) and the McEwen/Smith–Liu line-contact field, see the tests).
 
@@ -225,7 +225,7 @@ class HalfSpaceStress:
             average(((r,), (c,)), ((1, 1), (-1, 1), (1, -1), (-1, -1)))
 
     def stresses(self, P_hat, Tx_hat, Ty_hat=None, out=None, layers=None) -> np.ndarray:
-        """Stresses (6, N_z, nx, ny) of the fluctuating surface tractions (MODEL.md A.1).
+        """Stresses (6, N_z, nx, ny) of the fluctuating surface tractions (docs/model.md A.1).
 
         ``P_hat``, ``Tx_hat``, ``Ty_hat``: half spectra (``rfft2``, shape (nx, ny//2+1); on a
         slab of several ranks only its columns ``slab.cols``) of

@@ -1,7 +1,7 @@
-"""Macro stress fields of the smooth Hertz contact with Coulomb friction (MODEL.md §4.2).
+"""Macro stress fields of the smooth Hertz contact with Coulomb friction (docs/model.md §4.2).
 
 * :func:`line_contact_stress`: closed form of the 2-D Hertz line contact with traction q = μp
-  (McEwen 1949; Smith & Liu 1953; MODEL.md Appendix A.2), plane strain.
+  (McEwen 1949; Smith & Liu 1953; docs/model.md Appendix A.2), plane strain.
 * :class:`EllipticalContactField` / :func:`elliptical_contact_stress`: the Hertz ellipse with
   traction μp in +x, computed once per contact by the Appendix A.1 kernels on a large, square,
   zero-padded periodic window fed with the *exact* Fourier transform of the Hertz pressure, plus
@@ -9,7 +9,7 @@
 
 Layout: stresses are float64 arrays (6, ...) in Voigt order (xx, yy, zz, yz, xz, xy), tension
 positive, z positive into the body; σ_zz(x, 0) = −p and σ_xz(x, 0) = −q for a traction q in +x
-on the body (MODEL.md §1).
+on the body (docs/model.md §1).
 """
 
 from __future__ import annotations
@@ -27,7 +27,7 @@ __all__ = ["EllipticalContactField", "elliptical_contact_stress", "line_contact_
 
 
 def _mn(x, z, b):
-    """McEwen's m ≥ 0 and n (sign of x) with m² − n² = b² − x² + z², m n = x z (MODEL.md A.2).
+    """McEwen's m ≥ 0 and n (sign of x) with m² − n² = b² − x² + z², m n = x z (docs/model.md A.2).
 
     m² = ½[√((b²−x²+z²)² + 4x²z²) + (b²−x²+z²)], n² = ½[√(…) − (b²−x²+z²)], evaluated without
     cancellation: the larger of the two from the sum, the other from m n = |x| z. At z = 0:
@@ -44,7 +44,7 @@ def _mn(x, z, b):
 def line_contact_stress(x, z, b, p0, mu, nu):
     """Stresses under a Hertz line contact with Coulomb traction (plane strain).
 
-    MODEL.md Appendix A.2 (McEwen, Phil. Mag. 40 (1949); Smith & Liu, J. Appl. Mech. 20 (1953);
+    docs/model.md Appendix A.2 (McEwen, Phil. Mag. 40 (1949); Smith & Liu, J. Appl. Mech. 20 (1953);
     Johnson, Contact Mechanics (1985) §7.1): p(x) = p0 √(1 − x²/b²), q = μp in +x on the
     body, σ_z(x,0) = −p, τ_xz(x,0) = −q. With m, n of :func:`_mn`, D = m² + n², q0 = μp0,
 
@@ -112,7 +112,7 @@ class EllipticalContactField:
     Depth layers are computed on first use (or up front with ``z``) and cached.
 
     No closed form exists off the axis for an ellipse with friction, so each layer is computed
-    once (MODEL.md §4.2, "a non-periodic DC-FFT"): the Appendix A.1 kernels
+    once (docs/model.md §4.2, "a non-periodic DC-FFT"): the Appendix A.1 kernels
     (:class:`HalfSpaceStress`) on a square periodic window of side L = ``pad`` · max(a_x, a_y)
     with ``points`` nodes per semi-axis, fed with the exact Fourier transform of the Hertz
     pressure (:func:`_hertz_ellipse_spectrum`); then

@@ -1,4 +1,4 @@
-"""Stopping a long job cleanly at a block boundary (HPC.md §3, "Long jobs").
+"""Stopping a long job cleanly at a block boundary (docs/hpc.md §3, "Long jobs").
 
 A :class:`StopControl` notes signals (Slurm's ``--signal=B:USR1@300`` forwarded by the job
 script, or SIGTERM), and at every block boundary all ranks agree, in one reduction, on whether

@@ -1,4 +1,4 @@
-"""Level-1 parallelism: independent work items spread over groups of ranks (HPC.md §2).
+"""Level-1 parallelism: independent work items spread over groups of ranks (docs/hpc.md §2).
 
 ``COMM_WORLD`` is split into groups of ``ranks_per_item`` contiguous ranks; each group works
 through its share of the work items (mesh positions × wear coefficients × roughness patches)

@@ -1,4 +1,4 @@
-"""Optional PETSc: the options database, ``-log_view`` stages and events (HPC.md §2).
+"""Optional PETSc: the options database, ``-log_view`` stages and events (docs/hpc.md §2).
 
 Everything here works without petsc4py: :func:`init_petsc` then returns False, :func:`stage`
 and :func:`event` do nothing, and :func:`option` reads the ``-micropit_*`` options from the
@@ -6,7 +6,7 @@ arguments given to :func:`init_petsc` with a small parser of its own. PETSc is u
 :func:`init_petsc` succeeded, so importing this module never initialises PETSc.
 
 Debian installs petsc4py under ``$PETSC_DIR/lib/python3/dist-packages``; the venv of
-``scripts/setup.sh`` has a ``.pth`` file for it (HPC.md trap 3).
+``scripts/setup.sh`` has a ``.pth`` file for it (docs/hpc.md §1 trap 3).
 """
 
 from __future__ import annotations

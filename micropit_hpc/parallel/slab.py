@@ -1,4 +1,4 @@
-"""Level-2 parallelism: one work item's window over the ranks of its group (HPC.md §2).
+"""Level-2 parallelism: one work item's window over the ranks of its group (docs/hpc.md §2).
 
 The window's x rows are split into contiguous slabs, one per rank of the group; depth is never
 split. Every (x, y, z) field of the item — the stress history, the Dang Van results, the damage
@@ -11,7 +11,7 @@ The 2-D fields (heights, pressure, wear, pits) are small and replicated.
   FFTW backend frees FFTW's shared state at exit while pyFFTW plans are alive: a segfault at
   interpreter shutdown, reproduced with 27² windows). A one-rank group takes the same code
   path with the serial pre-planned pyFFTW transform (mpi4py-fft costs 1.3–1.8× raw pyFFTW
-  on one rank, HPC.md §2).
+  on one rank, docs/hpc.md §2).
 * (x, y, z) fields: a PETSc DMDA with the same x ownership (sizes (n_y, n_x, N_z), processes
   (1, R, 1)), whose vectors wrap the slab arrays without a copy (``Vec.createWithArray``);
   :meth:`Slab.gather` brings a field to the group root in natural order through the DMDA's

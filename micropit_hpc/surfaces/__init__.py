@@ -1,4 +1,4 @@
-"""Rough surfaces (MODEL.md §3): the Topography container, synthetic fields, file readers."""
+"""Rough surfaces (docs/model.md §3): the Topography container, synthetic fields, file readers."""
 
 from micropit_hpc.surfaces.readers import HEIGHT_UNITS, NAN_POLICIES, read_topography
 from micropit_hpc.surfaces.synthetic import (

@@ -1,4 +1,4 @@
-"""Measured height maps from files → :class:`Topography` (MODEL.md §3).
+"""Measured height maps from files → :class:`Topography` (docs/model.md §3).
 
 Built-in formats (axis 0 of the stored matrix is x, the rolling direction; transpose a map that
 was stored with the scan lines across rolling before writing it):

@@ -1,10 +1,10 @@
-"""Synthetic rough surfaces from a seed, identical on any number of MPI ranks (MODEL.md §3).
+"""Synthetic rough surfaces from a seed, identical on any number of MPI ranks (docs/model.md §3).
 
 Every field is filtered white noise: h = F⁻¹[ √S(k) · F[n] ], with n the unit white noise of
 :func:`white_noise` and S the power spectrum of the requested surface, then shifted to zero mean
 and scaled to exactly the requested R_q (so the normalisation of S does not matter).
 
-Determinism (HPC.md §2): row i of the noise comes from its own stream
+Determinism (docs/hpc.md §2): row i of the noise comes from its own stream
 ``SeedSequence(seed, spawn_key=(*spawn_key, i))``, so any slab of rows is generated alone and
 the full field does not depend on how rows are split between ranks. The transforms here use
 ``numpy.fft`` (pocketfft), not the pyFFTW plans of :mod:`micropit_hpc.spectral`: a plan made with
@@ -44,7 +44,7 @@ def white_noise(grid: Grid, seed: int, rows=None, spawn_key: tuple = ()) -> np.n
     """Unit Gaussian white noise on ``grid``, shape (len(rows), ny); all rows when rows is None.
 
     Row i is ``default_rng(SeedSequence(seed, spawn_key=(*spawn_key, i))).standard_normal(ny)``
-    (HPC.md §2), so a rank owning rows [i0, i1) generates exactly its slab with
+    (docs/hpc.md §2), so a rank owning rows [i0, i1) generates exactly its slab with
     ``rows=slice(i0, i1)``; ``spawn_key`` separates independent fields (e.g. the two bodies).
     """
     if not isinstance(seed, int | np.integer) or isinstance(seed, bool) or seed < 0:

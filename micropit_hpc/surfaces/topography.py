@@ -1,7 +1,8 @@
-"""A rough surface on a uniform grid: the :class:`Topography` container (MODEL.md §3).
+"""A rough surface on a uniform grid: the :class:`Topography` container (docs/model.md §3).
 
 ``heights[i, j]`` [m] is the height of the point ``origin + (i·dx, j·dy)``, measured outward from
-the body (a peak is positive, MODEL.md §1); axis 0 is x (rolling), axis 1 is y (across rolling).
+the body (a peak is positive, docs/model.md §1); axis 0 is x (rolling), axis 1 is y (across
+rolling).
 The patch is read as one period of a periodic surface: its size is ``lx × ly = nx·dx × ny·dy``.
 
 The processing steps return new objects and append to ``provenance``. A measured map goes
@@ -239,7 +240,7 @@ class Topography:
         factor = rq / self.rq if self.rq > 0 else 0.0
         return self._with(m + (self.heights - m) * factor, f"scaled to rq={rq:.6g} m")
 
-    # ---- spectral moments (MODEL.md §4.4) ----------------------------------------------------
+    # ---- spectral moments (docs/model.md §4.4) ------------------------------------------------
     def spectral_moments(self, min_wavelength: float = 0.0) -> tuple[float, float, float]:
         """(m0, m2, m4) of the x-profiles, averaged over y [m², 1, 1/m²]; wavelengths along x
         shorter than ``min_wavelength`` [m] left out.
@@ -261,7 +262,8 @@ class Topography:
         return float(power.sum()), float((kx2 * power).sum()), float((kx2**2 * power).sum())
 
     def peak_spacing_x(self, min_wavelength: float = 0.0) -> float:
-        """Mean peak spacing of the x-profiles λ_c = 2π √(m2/m4) [m] (MODEL.md §4.4; Nayak 1971),
+        """Mean peak spacing of the x-profiles λ_c = 2π √(m2/m4) [m] (docs/model.md §4.4;
+        Nayak 1971),
         from the wavelengths of at least ``min_wavelength`` [m] (:meth:`spectral_moments`).
 
         A pure cosine of wavelength λ gives λ. Profiles that are constant along x have no peaks:
