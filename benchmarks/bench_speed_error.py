@@ -1,4 +1,4 @@
-"""Speed against error of the numerical knobs (issue 7; docs/performance.md).
+"""Speed against error of the numerical knobs (docs/performance.md).
 
     .venv/bin/python benchmarks/bench_speed_error.py [--cases mpr,gear3,gear5] [--levels cycle,life]
         [--out benchmarks/results] [--plot docs/performance_speed_error.png] [--table-only]

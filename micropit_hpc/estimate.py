@@ -1,18 +1,16 @@
-"""An up-front estimate of a run's memory and time (issue 21 item 6), printed before the run and
-refused, with the estimate, when it exceeds the memory this node gives the job.
+"""An up-front estimate of a run's memory and time, printed before the run and refused, with
+the estimate, when it exceeds the memory this node gives the job (docs/jobs.md).
 
-The model is fitted to peak resident sizes and block times measured with one item on one rank of
-a 2-core workstation (tiny disc scene, window.steps = 8; tests/test_estimate.py re-measures the
-memory side): a process of the stack takes about :data:`PROCESS_MIB`; one block of one item
-needs a transient :data:`TRANSIENT_B_PER_POINT` + :data:`STRESS_B_PER_POINT_LAYER_STEP` ×
-layers × steps bytes per grid point (stress histories over the cycle, both bodies), split over
+The model is fitted to peak resident sizes and block times measured with one item on one rank
+(tiny disc scene, window.steps = 8; the sizes are in docs/jobs.md, and tests/test_estimate.py
+re-measures the memory side): a process of the stack takes about :data:`PROCESS_MIB`; one block
+of one item needs a transient :data:`TRANSIENT_B_PER_POINT` + :data:`STRESS_B_PER_POINT_LAYER_STEP`
+× layers × steps bytes per grid point (stress histories over the cycle, both bodies), split over
 the ranks of the item; every item a rank holds keeps :data:`ITEM_B_PER_POINT` + 32 × layers
 bytes per point (its solvers, surfaces, damage); world rank 0 gathers every item's final maps.
-Measured: 128² × 6 layers 139 MiB, × 12 layers 224 MiB, 256² × 6 layers 458 MiB; 4 items at
-64² 13 MiB more than 1. The time is an order of magnitude only (the contact solver's
-iterations and the adaptive splits of a block vary with Λ and wear): about
-:data:`SECONDS_PER_POINT_LAYER_STEP` s per grid point, layer + 4, and time step.
-"""
+The time is an order of magnitude only (the contact solver's iterations and the adaptive splits
+of a block vary with Λ and wear): about :data:`SECONDS_PER_POINT_LAYER_STEP` s per grid point,
+layer + 4, and time step."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""One run per output folder (issue 21 item 5; docs/outputs.md "The output folder").
+"""One run per output folder (docs/outputs.md "The output folder").
 
 * A lock file ``OUT/.micropit.lock`` (host, pid, batch job id, start time) is created
   exclusively by rank 0 and refreshed every :data:`HEARTBEAT_S` s while the run lives. A

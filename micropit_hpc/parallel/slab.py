@@ -18,7 +18,7 @@ The 2-D fields (heights, pressure, wear, pits) are small and replicated.
   natural vector.
 
 Results equal those of one rank to round-off (the distributed transform sums in another order;
-tests/test_slab_mpi.py checks 1e-12 relative).
+tests/test_restart_mpi.py checks 1e-12 relative with ranks_per_item = 2).
 """
 
 from __future__ import annotations
