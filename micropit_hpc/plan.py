@@ -22,6 +22,7 @@ import numpy as np
 from micropit_hpc.conditions import ContactConditions, ContactStudy, contact_study
 from micropit_hpc.errors import MicropitError, SceneError, collective
 from micropit_hpc.hertz import line_contact
+from micropit_hpc.lubrication import LEVELS
 from micropit_hpc.mechanics.halfspace import depth_layers
 from micropit_hpc.regime import window_problems
 from micropit_hpc.scene import Scene, check_mixed_inputs
@@ -31,8 +32,6 @@ __all__ = ["LEVELS", "MAX_BLOCKS", "Plan", "Window", "WorkItem", "block_cycles",
            "check_life_kinematics", "choose_level", "life_blocks", "make_plan",
            "reference_half_width", "scaled_scene", "window_grid", "work_items"]
 
-#: Contact levels of a position (``lubrication.model`` less ``auto``), docs/model.md §4.1.
-LEVELS = ("smooth", "dry", "mixed")
 
 
 # ---- the window ------------------------------------------------------------------------------

@@ -37,6 +37,7 @@ from micropit_hpc.gear import (
     MeshingError,
     zero_backlash_centre_distance,
 )
+from micropit_hpc.lubrication import LEVELS
 from micropit_hpc.schema import (
     Section,
     check_unknown,
@@ -59,7 +60,7 @@ TOP_LEVEL = ("study", "gear", "disc", "body1", "body2", "lubricant", "film", "he
              "window", "lubrication", "stress", "fatigue", "wear", "life")
 
 SURFACE_KINDS = ("gaussian", "self_affine", "file", "smooth")
-LUBRICATION_MODELS = ("auto", "smooth", "dry", "mixed")
+LUBRICATION_MODELS = ("auto", *LEVELS)
 COUNTING = ("sliding", "rainflow")
 #: Time integration of the life (micropit_hpc.life): the adaptive split or the paper's blocks.
 INTEGRATIONS = ("adaptive", "paper")
