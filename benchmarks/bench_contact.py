@@ -16,17 +16,20 @@ import subprocess
 import time
 
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
+from micropit_hpc.scene import LubricationSpec
 from micropit_hpc.spectral import Grid
 from micropit_hpc.surfaces import gaussian_surface
 
 E_PRIME = 210e9 / (1 - 0.3**2)
+#: The scene's iteration limit of one contact solve (lubrication.max_iterations).
+MAX_ITER = LubricationSpec().max_iter
 
 
 def load_for_area(gap0, hs, target=0.2):
     """Mean pressure giving about ``target`` contact area (secant on log P)."""
     P, lo, hi = 1e9, None, None
     for _ in range(30):
-        frac = solve_dry_contact(gap0, hs, P, tol=1e-5).area_fraction
+        frac = solve_dry_contact(gap0, hs, P, tol=1e-5, max_iter=MAX_ITER).area_fraction
         if abs(frac - target) < 0.01:
             return P
         if frac < target:
@@ -57,7 +60,7 @@ def main() -> None:
         times = []
         for _ in range(args.repeat):
             t0 = time.perf_counter()
-            sol = solve_dry_contact(gap0, hs, P, tol=1e-8)
+            sol = solve_dry_contact(gap0, hs, P, tol=LubricationSpec().tol, max_iter=MAX_ITER)
             times.append(time.perf_counter() - t0)
         t = statistics.median(times)
         print(f"| {n}² | {100 * sol.area_fraction:.1f} % | {sol.iterations} | {t:.3f} | "

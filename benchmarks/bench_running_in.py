@@ -48,11 +48,11 @@ def main() -> None:
     scene = scene_from_dict(doc, args.scene)
     run = ItemRun(scene, WorkItem(0, args.position, args.k_lub, args.scale, 0))
     print(f"# {args.scene}, window {run.cycle.grid.nx}², position {args.position}, k_lub "
-          f"{args.k_lub:g} s, roughness × {args.scale:g}, max_splits {run.params.max_splits}, "
-          f"max_wear_fraction {run.params.max_wear_fraction:g}, "
-          f"max_pit_step {run.params.max_pit_step:g}, "
-          f"wear {run.params.wear_integration}, "
-          f"peak_spacing_min_cells {run.params.peak_spacing_min_cells:g}; "
+          f"{args.k_lub:g} s, roughness × {args.scale:g}, max_splits {scene.life.max_splits}, "
+          f"max_wear_fraction {scene.life.max_wear_fraction:g}, "
+          f"max_pit_step {scene.life.max_pit_step:g}, "
+          f"wear {scene.life.wear_integration}, "
+          f"peak_spacing_min_cells {scene.fatigue.peak_spacing_min_cells:g}; "
           f"{datetime.date.today()}, commit {source_commit()}, one rank")
     print("| block | sub-blocks | φ | A_p body 1 / 2 [%] | n_μ 1 / 2 | mean wear 1 / 2 [nm] "
           "| λ_c seen by 1 / 2 [µm] | wall [s] |")

@@ -41,7 +41,6 @@ from micropit_hpc import source_commit
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import body_surface
 from micropit_hpc.errors import MicropitError
-from micropit_hpc.life import evaluate_cycle
 from micropit_hpc.plan import WorkItem, reference_half_width, window_grid
 from micropit_hpc.scene import scene_from_dict
 from micropit_hpc.study import ItemRun
@@ -120,13 +119,12 @@ def cycle_row(case, scene, study, reference) -> dict:
     """One load-cycle evaluation, reported as 1 M cycles at its rates (module docstring)."""
     t0 = time.perf_counter()
     run = _item(case, scene, study, reference)
-    params = run.params
-    res = evaluate_cycle(run.cycle, run.state, params)
+    res = run.cycle.evaluate(run.surfaces)          # the initial surfaces: no pits yet
     wall = time.perf_counter() - t0
     n = 1e6
     ap = max(100.0 * float(((n * b.damage_rate) >= 1.0).any(axis=0).mean()) for b in res.bodies)
     dmax = max(float(n * b.damage_rate.max()) for b in res.bodies)
-    wear = max(float(b.wear.depth(n, params.wear_integration).mean()) for b in res.bodies)
+    wear = max(float(b.wear.depth(n, run.life.wear_integration).mean()) for b in res.bodies)
     return dict(wall_s=wall, Ap_pct=ap, D_max=dmax, wear_nm=wear * 1e9, phi=res.phi,
                 sub_blocks=1)
 
@@ -137,7 +135,7 @@ def life_row(case, scene, study, reference) -> dict:
     run = _item(case, scene, study, reference)
     subs, phi = 0, 0.0
     while run.state.cycles < 1e6 * (1 - 1e-9):
-        rec = run.run_block(min(run.params.block, 1e6 - run.state.cycles))
+        rec = run.run_block(min(run.life.block, 1e6 - run.state.cycles))
         subs += rec.sub_blocks
         phi = rec.phi
     wall = time.perf_counter() - t0

@@ -1,4 +1,5 @@
-"""One load cycle at one contact position: the travelling window and its time steps (MODEL §4).
+"""One load cycle at one contact position: the travelling window, its time steps and what the
+cycle does to each body (MODEL.md §4).
 
 A load cycle is one passage of the surfaces through the contact. The window (a periodic patch
 of L_x × L_y, default 2 b_ref square) travels with ū from the inlet x_c = −b to the outlet
@@ -9,23 +10,37 @@ position and solves one time step: contact (:mod:`micropit_hpc.lubrication`) and
 (:mod:`micropit_hpc.mechanics`) in each body's material frame, where the pressure and
 traction arrive by linear interpolation (no ringing) and the macro Hertz field is the one at
 the window centre, so that σ_zz(0) = −p and σ_xz(0) = −q hold exactly (docs/contact.md).
+
+:meth:`PositionCycle.evaluate` runs the whole cycle on the surfaces it is given: the contact at
+every step, the stresses and Dang Van per body, the damage per cycle (S–N line and cycle
+counting) and the Archard wear per cycle (MODEL.md §4.1–§4.6). Its settings are the scene's
+``[lubrication]``, ``[fatigue]`` and ``[wear]`` tables and the work item's k_lub; which surfaces
+a cycle sees, and what its rates do over a block, is the life loop's (:mod:`micropit_hpc.life`,
+MODEL.md §5).
 """
 
 from __future__ import annotations
 
+import functools
 import math
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
+from typing import ClassVar
 
 import numpy as np
 
-from micropit_hpc.conditions import ContactStudy
+from micropit_hpc.conditions import ContactConditions, ContactStudy
 from micropit_hpc.errors import MicropitError, SceneError
+from micropit_hpc.fatigue.dangvan import ALPHA_DV, dang_van
+from micropit_hpc.fatigue.rainflow import rainflow_damage
+from micropit_hpc.fatigue.sn import WoehlerLine
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
-from micropit_hpc.lubrication.mixed import MixedLubrication, MixedParameters, restore_mean
-from micropit_hpc.lubrication.rheology import calibrated_prefactor
+from micropit_hpc.lubrication.mixed import MixedLubrication, restore_mean
 from micropit_hpc.mechanics.halfspace import HalfSpaceStress
 from micropit_hpc.mechanics.hertz_field import EllipticalContactField, line_contact_stress
 from micropit_hpc.parallel import SerialComm
+from micropit_hpc.parallel.petsc import event
 from micropit_hpc.parallel.share import from_root
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.plan import Window, choose_level
@@ -38,35 +53,68 @@ from micropit_hpc.surfaces import (
     read_topography,
     self_affine_surface,
 )
+from micropit_hpc.wear import WearRate, archard_wear
+
+__all__ = ["BodyCycle", "CycleResult", "PositionCycle", "StepFields", "body_surface",
+           "micro_cycles", "rainflow_steps"]
 
 
-def body_surface(scene: Scene, body: int, grid: Grid, patch: int = 0) -> Topography:
-    """Topography of body 1 or 2 on the window grid (MODEL.md §3), from its [bodyN.surface].
+# ---- the surfaces of a body ----------------------------------------------------------------
+def _surface_errors(maker):
+    """A surface maker whose :class:`TopographyError` becomes a :class:`SceneError` naming the
+    body's ``[bodyN.surface]`` table."""
+    @functools.wraps(maker)
+    def made(scene: Scene, body: int, grid: Grid, spawn: tuple[int, ...]) -> Topography:
+        try:
+            return maker(scene, body, grid, spawn)
+        except TopographyError as e:
+            raise SceneError(scene.source, f"body{body}.surface: {e}") from None
+    return made
 
-    ``patch`` numbers the independent synthetic patches of a study (``study.patches``): patch 0
-    draws the random streams (seed, body), patch p > 0 the streams (seed, body, p).
-    """
-    b: Body = scene.body1 if body == 1 else scene.body2
+
+def _body(scene: Scene, body: int) -> Body:
+    return scene.body1 if body == 1 else scene.body2
+
+
+@_surface_errors
+def _smooth_surface(scene: Scene, body: int, grid: Grid, spawn) -> Topography:
+    return Topography(np.zeros(grid.shape), grid.dx, grid.dy, "smooth")
+
+
+@_surface_errors
+def _gaussian_surface(scene: Scene, body: int, grid: Grid, spawn) -> Topography:
+    b = _body(scene, body)
     spec = b.surface
-    key = f"body{body}.surface"
-    seed, spawn = scene.window.seed, (body,) if patch == 0 else (body, patch)
-    try:
-        if spec.kind == "smooth" or b.Rq == 0.0:
-            return Topography(np.zeros(grid.shape), grid.dx, grid.dy, "smooth")
-        if spec.kind == "gaussian":
-            return gaussian_surface(grid, b.Rq, spec.corr_x, spec.corr_y, seed, spec.acf, spawn)
-        if spec.kind == "self_affine":
-            long_c = spec.long_cutoff if spec.long_cutoff is not None else max(grid.lx, grid.ly)
-            short_c = spec.short_cutoff if spec.short_cutoff is not None else 4 * max(grid.dx,
-                                                                                      grid.dy)
-            return self_affine_surface(grid, b.Rq, spec.hurst, long_c, short_c, seed, spawn)
-        topo = read_topography(spec.file, dataset=spec.dataset, spacing=spec.spacing,
-                               height_unit=spec.height_unit, nan_policy=spec.nan_policy)
-        mapped = topo.detrended(spec.detrend).periodised(spec.periodise, keep_rq=True)
-        topo = mapped.resampled(grid)
-    except TopographyError as e:
-        raise SceneError(scene.source, f"{key}: {e}") from None
-    if spec.rescale:
+    return gaussian_surface(grid, b.Rq, spec.corr_x, spec.corr_y, scene.window.seed, spec.acf,
+                            spawn)
+
+
+@_surface_errors
+def _self_affine_surface(scene: Scene, body: int, grid: Grid, spawn) -> Topography:
+    b = _body(scene, body)
+    spec = b.surface
+    long_c = spec.long_cutoff if spec.long_cutoff is not None else max(grid.lx, grid.ly)
+    short_c = spec.short_cutoff if spec.short_cutoff is not None else 4 * max(grid.dx, grid.dy)
+    return self_affine_surface(grid, b.Rq, spec.hurst, long_c, short_c, scene.window.seed,
+                               spawn)
+
+
+@_surface_errors
+def _read_map(scene: Scene, body: int, grid: Grid, spawn) -> tuple[Topography, Topography]:
+    """The measured map as read and detrended (and periodised), and sampled on the window."""
+    spec = _body(scene, body).surface
+    topo = read_topography(spec.file, dataset=spec.dataset, spacing=spec.spacing,
+                           height_unit=spec.height_unit, nan_policy=spec.nan_policy)
+    mapped = topo.detrended(spec.detrend).periodised(spec.periodise, keep_rq=True)
+    return mapped, mapped.resampled(grid)
+
+
+def _measured_surface(scene: Scene, body: int, grid: Grid, spawn) -> Topography:
+    """A measured map on the window, scaled to the body's R_q (``rescale``) or checked
+    against it."""
+    b = _body(scene, body)
+    mapped, topo = _read_map(scene, body, grid, spawn)
+    if b.surface.rescale:
         return topo.scaled_to_rq(b.Rq)
     if abs(topo.rq - b.Rq) > 0.05 * b.Rq:
         raise SceneError(scene.source, f"the measured map has R_q = {topo.rq * 1e6:.4g} µm on "
@@ -74,10 +122,32 @@ def body_surface(scene: Scene, body: int, grid: Grid, patch: int = 0) -> Topogra
                                        f"detrended; the window is cut from it and sampled at "
                                        f"{grid.dx * 1e6:.3g} µm), more than 5 % from the "
                                        f"body's R_q; set body{body}.Rq_um to it or "
-                                       f"{key}.rescale = true",
+                                       f"body{body}.surface.rescale = true",
                          key=f"body{body}.Rq_um",
                          value=scene.document.get(f"body{body}", {}).get("Rq_um", b.Rq * 1e6))
     return topo
+
+
+#: The maker of each surface kind (``[bodyN.surface] kind``, :data:`~micropit_hpc.scene.
+#: SURFACE_KINDS`): (scene, body, grid, random-stream spawn key) → topography on the grid.
+SURFACE_MAKERS: dict[str, Callable[[Scene, int, Grid, tuple[int, ...]], Topography]] = {
+    "smooth": _smooth_surface,
+    "gaussian": _gaussian_surface,
+    "self_affine": _self_affine_surface,
+    "file": _measured_surface,
+}
+
+
+def body_surface(scene: Scene, body: int, grid: Grid, patch: int = 0) -> Topography:
+    """Topography of body 1 or 2 on the window grid (MODEL.md §3), from its [bodyN.surface]
+    (:data:`SURFACE_MAKERS`; a body with R_q = 0 is smooth whatever its kind).
+
+    ``patch`` numbers the independent synthetic patches of a study (``study.patches``): patch 0
+    draws the random streams (seed, body), patch p > 0 the streams (seed, body, p).
+    """
+    b = _body(scene, body)
+    kind = "smooth" if b.Rq == 0.0 else b.surface.kind
+    return SURFACE_MAKERS[kind](scene, body, grid, (body,) if patch == 0 else (body, patch))
 
 
 @dataclass(frozen=True)
@@ -106,17 +176,78 @@ class StepFields:
         return float((self.friction * self.pressure).sum() / self.pressure.sum())
 
 
+@dataclass(frozen=True)
+class BodyCycle:
+    """One load cycle's effect on one body: damage per cycle (N_z, n_x, n_y), wear per cycle
+    (n_x, n_y) by regime, the rough and smooth Dang Van stresses [Pa], the micro-cycles per
+    load cycle n_μ and the counterface's peak spacing λ_c [m]. ``damage_low``: the part of
+    the damage per cycle from below the S–N line's data, N < n_min
+    (:meth:`~micropit_hpc.fatigue.sn.WoehlerLine.low_damage`; None: not known, taken as 0)."""
+
+    damage_rate: np.ndarray
+    wear: WearRate
+    tau_rough: np.ndarray
+    tau_smooth: np.ndarray
+    n_micro: float
+    lam_c: float
+    damage_low: np.ndarray | None = None
+
+
+@dataclass(frozen=True)
+class CycleResult:
+    """A load-cycle evaluation: both bodies, the load fraction carried by solid contact φ
+    (pressure-weighted over the steps), the solid-contact area fraction, the steps used and
+    the wall time. ``plastic_share``: the share of the contact area (p > 0, all steps
+    together) where the pressure is at the cap p_lim, i.e. where the material yields."""
+
+    bodies: tuple[BodyCycle, BodyCycle]
+    phi: float
+    solid_fraction: float
+    steps: int
+    wall_s: float
+    plastic_share: float = 0.0
+
+
+def micro_cycles(cycle: PositionCycle, body: int, lam_c: float) -> float:
+    """n_μ,i = 2b |u1 − u2| / (u_i λ_c,j) micro-cycles per load cycle (MODEL.md §4.4): the
+    counterface j slides 2b|u1 − u2|/u_i past a point of body i while it crosses the contact."""
+    c = cycle.cond
+    u_i = c.u1 if body == 1 else c.u2
+    if not math.isfinite(lam_c) or c.u1 == c.u2:
+        return 0.0
+    return 2.0 * c.b * abs(c.u1 - c.u2) / (u_i * lam_c)
+
+
+def rainflow_steps(c: ContactConditions, steps: int, lam_c: float) -> int:
+    """Time steps for rainflow counting at contact ``c`` (MODEL.md §4.4): the relative slip per
+    step 2b|S|/m must not exceed λ_c/4, so m ≥ 8 b |S| / λ_c; never fewer than ``steps``."""
+    if not math.isfinite(lam_c) or lam_c <= 0:
+        return steps
+    return max(steps, math.ceil(8.0 * c.b * abs(c.S) / lam_c - 1e-9))
+
+
 class PositionCycle:
-    """The window, surfaces and solvers of one position of a study (MODEL.md §4).
+    """The window, surfaces and solvers of one position of a study, and its load cycle
+    (MODEL.md §4).
 
     ``comm``: the ranks of the work item's group (default: this rank alone). With several
     ranks the contact of a step is solved on the group root and broadcast (it is 2-D and
-    small); the stresses are computed on each rank's x-slab (:attr:`slab`).
+    small); the stresses are computed on each rank's x-slab (:attr:`slab`, a one-rank slab
+    without ``comm``).
+
+    ``k_lub``: the work item's wear coefficient [s], one of ``wear.k_lub_s``. It is the cycle's
+    like its position and surfaces: fixed for the item's life, and all that the cycle needs to
+    know of the item besides. Default 0 (no Archard wear): the uses that never evaluate a
+    whole cycle (``micropit snapshot``, a contact step) need none. The other settings of the
+    cycle are the scene's: ``[lubrication]`` and the lubricant for the contact,
+    ``[fatigue]`` (the S–N line :attr:`woehler`, α_DV, counting, macro samples, peak spacing
+    cut) and ``wear.solid_factor`` for :meth:`evaluate`.
     """
 
     def __init__(self, study: ContactStudy, position: int,
                  surfaces: tuple[Topography, Topography] | None = None,
-                 steps: int | None = None, comm=None, window: Window | None = None):
+                 steps: int | None = None, comm=None, window: Window | None = None,
+                 k_lub: float = 0.0):
         scene = study.scene
         if not 1 <= position <= len(study.conditions):
             raise MicropitError(f"{scene.source}: position {position} does not exist (the "
@@ -139,15 +270,14 @@ class PositionCycle:
         self.half_spaces = ElasticHalfSpaces(g, study.E_prime)
         self.mixed = None
         if self.level == "mixed":
-            lubr = scene.lubricant
-            prm = MixedParameters(
-                eta0=lubr.eta0, alpha=lubr.alpha_pv, tau0=lubr.tau0, p_lim=self.p_lim,
-                prefactor=lub.prefactor if lub.prefactor is not None else calibrated_prefactor(),
-                fluid_share=lub.fluid_share, combine=lub.combine, tol=lub.tol,
-                max_iter=lub.max_iter, film_tol=lub.film_tol)
             self.mixed = MixedLubrication(
                 g, geometry="line" if c.geometry == "line" else "elliptical", load=c.load,
-                R=c.R, b=c.b, u1=c.u1, u2=c.u2, h_mean=c.hc, E_prime=study.E_prime, params=prm)
+                R=c.R, b=c.b, u1=c.u1, u2=c.u2, h_mean=c.hc, E_prime=study.E_prime,
+                lubrication=lub, lubricant=scene.lubricant, p_lim=self.p_lim)
+        fat = scene.fatigue
+        self.woehler = WoehlerLine.from_spec(fat)
+        self.alpha_dv = ALPHA_DV if fat.alpha is None else fat.alpha
+        self.k_lub = float(k_lub)
         self.z = self.window.z
         self.slab = Slab(SerialComm() if comm is None else comm, g, self.z.size)
         self._micro: dict[int, HalfSpaceStress] = {}
@@ -155,7 +285,8 @@ class PositionCycle:
 
     def set_surfaces(self, surfaces: tuple[Topography, Topography],
                      pits: tuple[np.ndarray, np.ndarray] | None = None) -> None:
-        """Use new surfaces (worn, pitted) from now on; the contact level stays as chosen.
+        """The surfaces the time steps see from now on (worn, pitted; :meth:`evaluate` sets
+        those it is given); the contact level stays as chosen.
 
         ``pits``: each body's pitted columns (material frame) that carry no load
         (``life.pit_contact = "unloaded"``): after each contact solve the pressure there is
@@ -196,6 +327,33 @@ class PositionCycle:
         precedence as warm starts and are updated (:meth:`MixedLubrication.solve`)."""
         return from_root(self.slab.comm, lambda: self._solve_step(step, p_init, warm))
 
+    # the contact of one step at each level (:data:`~micropit_hpc.plan.LEVELS`): (rough
+    # clearance spectra at t, p̄, t, warm start, warm dict) → (pressure, clearance, φ, iterations)
+    def _smooth_contact(self, r_now, p_mean: float, t: float, p_init, warm):
+        """No roughness in the contact (or no load): p = p̄ and the central film everywhere."""
+        g = self.grid
+        return np.full(g.shape, p_mean), np.full(g.shape, self.cond.hc), 0.0, 0
+
+    def _dry_contact(self, r_now, p_mean: float, t: float, p_init, warm):
+        """Elastic–perfectly-plastic contact of the roughness; the solids carry all (φ = 1)."""
+        lub = self.scene.lubrication
+        gap0 = self._fft.inverse(r_now[0] + r_now[1])
+        start = p_init if warm is None else warm.get("dry", p_init)
+        sol = solve_dry_contact(gap0, self.half_spaces, p_mean, p_lim=self.p_lim,
+                                tol=lub.tol, max_iter=lub.max_iter, p_init=start)
+        if warm is not None:
+            warm["dry"] = sol.pressure.astype(np.float32)
+        return sol.pressure, sol.gap, 1.0, sol.iterations
+
+    def _mixed_contact(self, r_now, p_mean: float, t: float, p_init, warm):
+        """The fast mixed-lubrication model (:class:`MixedLubrication`)."""
+        sol = self.mixed.solve(r_now, self.rough_spectra, p_mean, t, p_init=p_init, warm=warm)
+        return sol.pressure, sol.clearance, sol.phi, sol.iterations
+
+    #: The contact solver of each level.
+    _CONTACT: ClassVar[dict[str, Callable]] = {"smooth": _smooth_contact, "dry": _dry_contact,
+                                               "mixed": _mixed_contact}
+
     def _solve_step(self, step: int, p_init: np.ndarray | None,
                     warm: dict | None = None) -> StepFields:
         g, c, lub = self.grid, self.cond, self.scene.lubrication
@@ -204,22 +362,9 @@ class PositionCycle:
         p_mean = self.mean_pressure(x_c)
         r_now = tuple(fourier_shift(r, g, self.slip(i + 1, t))
                       for i, r in enumerate(self.rough_spectra))
-        phi, iters = 0.0, 0
-        if self.level == "smooth" or p_mean == 0.0:
-            pressure = np.full(g.shape, p_mean)
-            clearance = np.full(g.shape, c.hc)
-        elif self.level == "dry":
-            gap0 = self._fft.inverse(r_now[0] + r_now[1])
-            start = p_init if warm is None else warm.get("dry", p_init)
-            sol = solve_dry_contact(gap0, self.half_spaces, p_mean, p_lim=self.p_lim,
-                                    tol=lub.tol, max_iter=lub.max_iter, p_init=start)
-            pressure, clearance, phi, iters = sol.pressure, sol.gap, 1.0, sol.iterations
-            if warm is not None:
-                warm["dry"] = pressure.astype(np.float32)
-        else:
-            sol = self.mixed.solve(r_now, self.rough_spectra, p_mean, t, p_init=p_init,
-                                   warm=warm)
-            pressure, clearance, phi, iters = sol.pressure, sol.clearance, sol.phi, sol.iterations
+        level = "smooth" if p_mean == 0.0 else self.level
+        pressure, clearance, phi, iters = self._CONTACT[level](self, r_now, p_mean, t, p_init,
+                                                               warm)
         if self.pits is not None and p_mean > 0.0:
             pressure, clearance = self._unload_pits(pressure, clearance, p_mean, t)
         solid = clearance <= lub.h_min if self.level != "smooth" else np.zeros(g.shape, bool)
@@ -337,3 +482,84 @@ class PositionCycle:
                                self.z[None, :, None], mu_signed)[:, :, :, None, :]
         sig = np.moveaxis(sig, 0, 1)
         return np.concatenate([sig, np.zeros((1, *sig.shape[1:]))])
+
+    # ---- the load cycle ----------------------------------------------------------------------
+    def evaluate(self, surfaces: tuple[Topography, Topography],
+                 pits: tuple[np.ndarray, np.ndarray] | None = None, warm: dict | None = None,
+                 on_step: Callable[[int], None] | None = None) -> CycleResult:
+        """One load cycle on ``surfaces`` (MODEL.md §4): contact at every step, stresses and
+        Dang Van per body, damage and wear per cycle. Collective over the group (:meth:`solve_step`,
+        :meth:`stresses`); the damage of each body holds this rank's slab rows.
+
+        ``surfaces``: both bodies' surfaces as the contact sees them, which become the cycle's
+        (:meth:`set_surfaces`); ``pits``: each body's pitted columns that carry no load
+        (``life.pit_contact = "unloaded"``; None: none). The counterface's peak spacing λ_c
+        (:meth:`~micropit_hpc.surfaces.Topography.peak_spacing_x`, wavelengths below
+        ``fatigue.peak_spacing_min_cells`` cells left out) gives the micro-cycles n_μ
+        (:func:`micro_cycles`) of ``counting = "sliding"``.
+
+        ``warm``: the contact solver's warm starts by time step, kept by the caller from one
+        evaluation to the next (:meth:`solve_step`); :func:`~micropit_hpc.life.run_block`
+        keeps them within a block and starts each block without, so that a run restarted from
+        a block's checkpoint repeats the straight run's numbers exactly. ``on_step(j)``:
+        called after time step j (1-based) of the contact, for progress reports."""
+        t0 = time.perf_counter()
+        g, fat = self.grid, self.scene.fatigue
+        self.set_surfaces(surfaces, pits)
+        lam = tuple(s.peak_spacing_x(fat.peak_spacing_min_cells * g.dx) if s.rq > 0
+                    else math.inf for s in self.surfaces)
+        fields, p_prev = [], None
+        for j in range(self.steps):
+            with event("contact"):
+                f = self.solve_step(j, p_prev, None if warm is None else warm.setdefault(j, {}))
+            fields.append(f)
+            p_prev = f.pressure
+            if on_step is not None:
+                on_step(j + 1)
+        p_sum = sum(float(f.pressure.sum()) for f in fields)
+        weights = np.array([f.p_mean for f in fields])
+        phi = (float((weights * [f.phi for f in fields]).sum() / weights.sum())
+               if weights.any() else 0.0)
+        solid = float(np.mean([f.solid.mean() for f in fields]))
+        at_lim = (1.0 - 1e-9) * self.p_lim
+        in_contact = sum(int(np.count_nonzero(f.pressure > 0.0)) for f in fields)
+        plastic = (sum(int(np.count_nonzero(f.pressure >= at_lim)) for f in fields) / in_contact
+                   if in_contact else 0.0)
+        c, sn = self.cond, self.woehler
+        out = []
+        rainflow = fat.counting == "rainflow"
+        for body in (1, 2):
+            with event("stresses"):
+                hist = np.stack([self.stresses(f, body) for f in fields])  # (m, 6, Nz, nx, ny)
+            with event("dang_van"):
+                dv = dang_van(hist, alpha=self.alpha_dv, keep_series=rainflow)
+            del hist
+            q = sum(float((f.traction1 if body == 1 else f.traction2).sum()) for f in fields)
+            mu_signed = q / p_sum if p_sum > 0 else 0.0
+            with event("dang_van_macro"):
+                macro = dang_van(self.macro_history(body, mu_signed, fat.macro_samples),
+                                 alpha=self.alpha_dv)
+            tau_smooth = macro.tau_dv                                        # (Nz, 1, ny')
+            lam_c = lam[2 - body]                                            # the counterface's
+            n_mu = micro_cycles(self, body, lam_c)
+            with event("damage_rate"):
+                if rainflow:
+                    m = dv.series.shape[0]
+                    series = dv.series.reshape(m, -1)
+                    rate = rainflow_damage(series, sn.damage).reshape(dv.tau_dv.shape)
+                    low = rainflow_damage(series, sn.low_damage).reshape(dv.tau_dv.shape)
+                else:
+                    rate = sn.damage(tau_smooth) + n_mu * sn.damage(dv.tau_dv)
+                    low = sn.low_damage(tau_smooth) + n_mu * sn.low_damage(dv.tau_dv)
+            own, other = ((self.scene.body1, self.scene.body2) if body == 1
+                          else (self.scene.body2, self.scene.body1))
+            with event("wear_rate"):
+                wear = archard_wear([f.pressure for f in fields], [f.solid for f in fields],
+                                    [self.slip(body, f.t) for f in fields], g.dx, c.u_s,
+                                    own.hardness, other.hardness, self.k_lub,
+                                    self.scene.wear.f_w, self.half_spaces.self_compliance)
+            out.append(BodyCycle(damage_rate=rate, wear=wear, tau_rough=dv.tau_dv,
+                                 tau_smooth=tau_smooth, n_micro=n_mu, lam_c=lam_c,
+                                 damage_low=np.broadcast_to(low, rate.shape)))
+        return CycleResult(bodies=tuple(out), phi=phi, solid_fraction=solid, steps=self.steps,
+                           wall_s=time.perf_counter() - t0, plastic_share=plastic)

@@ -1,9 +1,12 @@
 """The life simulation at one contact point: blocks of ΔN load cycles (MODEL.md §5).
 
-Per block: one load-cycle evaluation (MODEL.md §4) on the current surfaces of both bodies →
-damage per cycle d(z, x, y) (Dang Van, S–N line, cycle counting) and wear per cycle Δh(x, y)
-(Archard) of each body → Miner's rule D += ΔN d, wear removed and the damage columns moved up,
-micropits where D ≥ 1 → surfaces updated for the next block.
+Per block: the surfaces the contact sees from the state of both bodies (:func:`contact_surfaces`)
+→ one load-cycle evaluation on them (:meth:`PositionCycle.evaluate
+<micropit_hpc.cycle.PositionCycle.evaluate>`, MODEL.md §4): damage per cycle d(z, x, y) (Dang
+Van, S–N line, cycle counting) and wear per cycle Δh(x, y) (Archard) of each body → Miner's rule
+D += ΔN d, wear removed and the damage columns moved up, micropits where D ≥ 1 → the state of
+the next block. The settings are the scene's ``[life]`` table (:class:`~micropit_hpc.scene.
+LifeSpec`), passed as it is; the load cycle's own (fatigue, wear) are the cycle's.
 
 **Adaptive blocks [choice]** (MODEL.md §5): a block is split into sub-blocks, each evaluated on
 the surfaces the previous one left, when in one go it would change the shape of a body's surface
@@ -43,7 +46,15 @@ sub-block is ``relaxed`` (default: the stiff solid-contact part integrated as th
 pressure relief it causes) or ``explicit`` (n Δh_i, MODEL.md §4.6 as written). The split's
 wear limit applies to the integrated depth.
 
-Units: SI (metres, pascals, cycles). Physics only: no I/O, no MPI.
+Units: SI (metres, pascals, cycles). No I/O. **Collective** over the work item's group (the
+ranks of ``cycle.slab.comm``): :func:`run_block` (the load-cycle evaluation: contact on the
+group root and broadcast, stresses on each rank's slab; the group-wide maxima and sums of the
+record), :func:`apply_cycles` (the pits found on each rank's rows gathered to every rank,
+:meth:`Slab.allgather_rows <micropit_hpc.parallel.slab.Slab.allgather_rows>`) and
+:func:`sub_block_cycles` (the damage rise and new pits over the whole window, :meth:`Slab.max
+<micropit_hpc.parallel.slab.Slab.max>` and ``allgather_rows``), which every rank of the group
+calls with the same arguments; on a one-rank slab these reductions are the local values. The
+other functions are local to the rank.
 """
 
 from __future__ import annotations
@@ -51,95 +62,24 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import gaussian_filter
 
-from micropit_hpc.conditions import ContactConditions
-from micropit_hpc.cycle import PositionCycle
-from micropit_hpc.fatigue.dangvan import ALPHA_DV, dang_van
-from micropit_hpc.fatigue.rainflow import rainflow_damage
-from micropit_hpc.fatigue.sn import WoehlerLine
+from micropit_hpc.cycle import CycleResult, PositionCycle
 from micropit_hpc.parallel.petsc import event
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.pits import detach, shift_columns
-from micropit_hpc.scene import INTEGRATIONS
+from micropit_hpc.scene import INTEGRATIONS, LifeSpec
+from micropit_hpc.spectral import Grid
 from micropit_hpc.state import BlockRecord, BodyState, LifeState
 from micropit_hpc.surfaces import Topography
-from micropit_hpc.wear import WearRate, archard_wear
+from micropit_hpc.wear import WearRate
 
-__all__ = ["INTEGRATIONS", "BlockRecord", "BodyCycle", "BodyState", "BodyStep", "CycleResult",
-           "LifeParams", "LifeState", "apply_cycles", "deep_damage_ratio", "evaluate_cycle",
-           "initial_state", "micro_cycles", "rainflow_steps", "rms_slope", "run_block",
+__all__ = ["INTEGRATIONS", "BlockRecord", "BodyState", "BodyStep", "LifeState", "apply_cycles",
+           "contact_surfaces", "deep_damage_ratio", "initial_state", "rms_slope", "run_block",
            "shape_change", "sub_block_cycles"]
-
-
-@dataclass(frozen=True)
-class LifeParams:
-    """Fatigue, wear and block settings of one work item (SI)."""
-
-    k_lub: float = 0.0
-    f_w: float = 10.0
-    woehler: WoehlerLine = field(default_factory=WoehlerLine)
-    alpha: float = ALPHA_DV
-    counting: str = "sliding"
-    macro_samples: int = 241
-    block: float = 1e6
-    max_wear_fraction: float = 0.1
-    max_damage_step: float = 0.25
-    max_pit_step: float = 0.01
-    max_splits: int = 64
-    pit_contact: str = "unloaded"
-    wear_integration: str = "relaxed"
-    peak_spacing_min_cells: float = 4.0
-    integration: str = "adaptive"
-
-    @classmethod
-    def from_scene(cls, scene, k_lub: float) -> LifeParams:
-        f, life = scene.fatigue, scene.life
-        return cls(k_lub=k_lub, f_w=scene.wear.f_w,
-                   woehler=WoehlerLine(f.A, f.B, f.n_min, f.low_cycle),
-                   alpha=ALPHA_DV if f.alpha is None else f.alpha, counting=f.counting,
-                   macro_samples=f.macro_samples, block=life.block,
-                   max_wear_fraction=life.max_wear_fraction,
-                   max_damage_step=life.max_damage_step, max_pit_step=life.max_pit_step,
-                   max_splits=life.max_splits,
-                   pit_contact=life.pit_contact, wear_integration=life.wear_integration,
-                   peak_spacing_min_cells=f.peak_spacing_min_cells,
-                   integration=life.integration)
-
-
-@dataclass(frozen=True)
-class BodyCycle:
-    """One load cycle's effect on one body: damage per cycle (N_z, n_x, n_y), wear per cycle
-    (n_x, n_y) by regime, the rough and smooth Dang Van stresses [Pa], the micro-cycles per
-    load cycle n_μ and the counterface's peak spacing λ_c [m]. ``damage_low``: the part of
-    the damage per cycle from below the S–N line's data, N < n_min
-    (:meth:`~micropit_hpc.fatigue.sn.WoehlerLine.low_damage`; None: not known, taken as 0)."""
-
-    damage_rate: np.ndarray
-    wear: WearRate
-    tau_rough: np.ndarray
-    tau_smooth: np.ndarray
-    n_micro: float
-    lam_c: float
-    damage_low: np.ndarray | None = None
-
-
-@dataclass(frozen=True)
-class CycleResult:
-    """A load-cycle evaluation: both bodies, the load fraction carried by solid contact φ
-    (pressure-weighted over the steps), the solid-contact area fraction, the steps used and
-    the wall time. ``plastic_share``: the share of the contact area (p > 0, all steps
-    together) where the pressure is at the cap p_lim, i.e. where the material yields."""
-
-    bodies: tuple[BodyCycle, BodyCycle]
-    phi: float
-    solid_fraction: float
-    steps: int
-    wall_s: float
-    plastic_share: float = 0.0
 
 
 @dataclass(frozen=True)
@@ -165,24 +105,6 @@ def initial_state(cycle: PositionCycle) -> LifeState:
                              pit_depth=np.zeros(g.shape), rq0=s.rq)
                    for s in cycle.surfaces)
     return LifeState(bodies=bodies)
-
-
-def micro_cycles(cycle: PositionCycle, body: int, lam_c: float) -> float:
-    """n_μ,i = 2b |u1 − u2| / (u_i λ_c,j) micro-cycles per load cycle (MODEL.md §4.4): the
-    counterface j slides 2b|u1 − u2|/u_i past a point of body i while it crosses the contact."""
-    c = cycle.cond
-    u_i = c.u1 if body == 1 else c.u2
-    if not math.isfinite(lam_c) or c.u1 == c.u2:
-        return 0.0
-    return 2.0 * c.b * abs(c.u1 - c.u2) / (u_i * lam_c)
-
-
-def rainflow_steps(c: ContactConditions, steps: int, lam_c: float) -> int:
-    """Time steps for rainflow counting at contact ``c`` (MODEL.md §4.4): the relative slip per
-    step 2b|S|/m must not exceed λ_c/4, so m ≥ 8 b |S| / λ_c; never fewer than ``steps``."""
-    if not math.isfinite(lam_c) or lam_c <= 0:
-        return steps
-    return max(steps, math.ceil(8.0 * c.b * abs(c.S) / lam_c - 1e-9))
 
 
 #: Width (grid cells) of the Gaussian over which a pitted column takes the wear around it.
@@ -212,94 +134,30 @@ def _around_pits(bs: BodyState) -> np.ndarray:
     return np.where(bs.pitted, h - np.maximum(around - bs.wear, 0.0), h)
 
 
-def evaluate_cycle(cycle: PositionCycle, state: LifeState, params: LifeParams,
-                   warm: dict | None = None,
-                   on_step: Callable[[int], None] | None = None) -> CycleResult:
-    """One load cycle on the current surfaces (MODEL.md §4): contact at every step, stresses
-    and Dang Van per body, damage and wear per cycle.
-
-    ``warm``: the contact solver's warm starts by time step, kept by the caller from one
-    evaluation to the next (:meth:`PositionCycle.solve_step`); :func:`run_block` keeps them
-    within a block and starts each block without, so that a run restarted from a block's
-    checkpoint repeats the straight run's numbers exactly. ``on_step(j)``: called after time
-    step j (1-based) of the contact, for progress reports."""
-    t0 = time.perf_counter()
-    g = cycle.grid
-    if params.pit_contact == "unloaded":   # the surface around the pits; pits carry nothing
-        tops = tuple(Topography(_around_pits(b), g.dx, g.dy, "evolved") for b in state.bodies)
-        cycle.set_surfaces(tops, pits=tuple(b.pitted for b in state.bodies))
-    else:
-        tops = tuple(Topography(b.heights, g.dx, g.dy, "evolved") for b in state.bodies)
-        cycle.set_surfaces(tops)
-    lam = tuple(t.peak_spacing_x(params.peak_spacing_min_cells * g.dx) if t.rq > 0
-                else math.inf for t in tops)
-    fields, p_prev = [], None
-    for j in range(cycle.steps):
-        with event("contact"):
-            f = cycle.solve_step(j, p_prev, None if warm is None else warm.setdefault(j, {}))
-        fields.append(f)
-        p_prev = f.pressure
-        if on_step is not None:
-            on_step(j + 1)
-    p_sum = sum(float(f.pressure.sum()) for f in fields)
-    weights = np.array([f.p_mean for f in fields])
-    phi = float((weights * [f.phi for f in fields]).sum() / weights.sum()) if weights.any() else 0.0
-    solid = float(np.mean([f.solid.mean() for f in fields]))
-    at_lim = (1.0 - 1e-9) * cycle.p_lim
-    in_contact = sum(int(np.count_nonzero(f.pressure > 0.0)) for f in fields)
-    plastic = (sum(int(np.count_nonzero(f.pressure >= at_lim)) for f in fields) / in_contact
-               if in_contact else 0.0)
-    c = cycle.cond
-    out = []
-    rainflow = params.counting == "rainflow"
-    for body in (1, 2):
-        with event("stresses"):
-            hist = np.stack([cycle.stresses(f, body) for f in fields])  # (m, 6, Nz, nx, ny)
-        with event("dang_van"):
-            dv = dang_van(hist, alpha=params.alpha, keep_series=rainflow)
-        del hist
-        q = sum(float((f.traction1 if body == 1 else f.traction2).sum()) for f in fields)
-        mu_signed = q / p_sum if p_sum > 0 else 0.0
-        with event("dang_van_macro"):
-            macro = dang_van(cycle.macro_history(body, mu_signed, params.macro_samples),
-                             alpha=params.alpha)
-        tau_smooth = macro.tau_dv                                        # (Nz, 1, ny')
-        lam_c = lam[2 - body]                                            # the counterface's
-        n_mu = micro_cycles(cycle, body, lam_c)
-        sn = params.woehler
-        with event("damage_rate"):
-            if rainflow:
-                m = dv.series.shape[0]
-                series = dv.series.reshape(m, -1)
-                rate = rainflow_damage(series, sn.damage).reshape(dv.tau_dv.shape)
-                low = rainflow_damage(series, sn.low_damage).reshape(dv.tau_dv.shape)
-            else:
-                rate = sn.damage(tau_smooth) + n_mu * sn.damage(dv.tau_dv)
-                low = sn.low_damage(tau_smooth) + n_mu * sn.low_damage(dv.tau_dv)
-        own, other = ((cycle.scene.body1, cycle.scene.body2) if body == 1
-                      else (cycle.scene.body2, cycle.scene.body1))
-        with event("wear_rate"):
-            wear = archard_wear([f.pressure for f in fields], [f.solid for f in fields],
-                                [cycle.slip(body, f.t) for f in fields], g.dx, c.u_s,
-                                own.hardness, other.hardness, params.k_lub, params.f_w,
-                                cycle.half_spaces.self_compliance)
-        out.append(BodyCycle(damage_rate=rate, wear=wear, tau_rough=dv.tau_dv,
-                             tau_smooth=tau_smooth, n_micro=n_mu, lam_c=lam_c,
-                             damage_low=np.broadcast_to(low, rate.shape)))
-    return CycleResult(bodies=tuple(out), phi=phi, solid_fraction=solid, steps=cycle.steps,
-                       wall_s=time.perf_counter() - t0, plastic_share=plastic)
+def contact_surfaces(state: LifeState, grid: Grid, pit_contact: str
+                     ) -> tuple[tuple[Topography, Topography],
+                                tuple[np.ndarray, np.ndarray] | None]:
+    """The surfaces the contact sees in ``state`` and the pitted columns that carry no load,
+    for :meth:`PositionCycle.evaluate`, by ``life.pit_contact``: ``"unloaded"``, the surface
+    around the pits (:func:`_around_pits`) and each body's pits; ``"geometric"``, the heights
+    as they are (pits and all) and no unloaded columns (None)."""
+    if pit_contact == "unloaded":   # the surface around the pits; pits carry nothing
+        tops = tuple(Topography(_around_pits(b), grid.dx, grid.dy, "evolved")
+                     for b in state.bodies)
+        return tops, tuple(b.pitted for b in state.bodies)
+    return tuple(Topography(b.heights, grid.dx, grid.dy, "evolved") for b in state.bodies), None
 
 
-def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
-                 slab: Slab | None = None, wear_integration: str = "relaxed") -> list[BodyStep]:
+def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray, slab: Slab,
+                 wear_integration: str) -> list[BodyStep]:
     """Advance both bodies by ``n`` load cycles at the rates of ``result`` (in place):
-    Miner's rule, wear (heights down, damage columns up), then micropits (MODEL.md §4.4–§4.6).
-    ``slab``: the rows of the damage this rank holds (default: the whole window); the pits
-    found on each slab are shared so that every rank keeps the whole surface. Collective.
-    Returns what it did to each body (:class:`BodyStep`)."""
+    Miner's rule, wear (heights down, damage columns up; ``life.wear_integration``), then
+    micropits (MODEL.md §4.4–§4.6). ``slab``: the rows of the damage this rank holds
+    (:attr:`PositionCycle.slab`); the pits found on each slab are shared so that every rank
+    keeps the whole surface. Collective. Returns what it did to each body (:class:`BodyStep`)."""
     done = []
+    rows = slab.rows
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
-        rows = slice(None) if slab is None else slab.rows
         added = n * bc.damage_rate
         low = None if bc.damage_low is None else n * bc.damage_low
         bs.damage += added
@@ -317,9 +175,8 @@ def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
             bs.damage = shift_columns(bs.damage, z, dh[rows])
         damage, depth, new = detach(bs.damage, z)
         bs.damage = damage
-        if slab is not None:
-            depth, new = slab.allgather_rows(depth), slab.allgather_rows(new)
-            low_col = slab.allgather_rows(low_col)
+        depth, new = slab.allgather_rows(depth), slab.allgather_rows(new)
+        low_col = slab.allgather_rows(low_col)
         fresh = new & ~bs.pitted
         if new.any():
             bs.heights -= depth
@@ -331,30 +188,25 @@ def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
     return done
 
 
-def _damage_rise(state: LifeState, result: CycleResult, n: float,
-                 slab: Slab | None = None) -> float:
+def _damage_rise(state: LifeState, result: CycleResult, n: float, slab: Slab) -> float:
     """Rise of the largest damage of the intact material over ``n`` cycles (points that reach
-    1 pit and leave the intact material); over the whole group when ``slab`` is given."""
-    group_max = (lambda v: v) if slab is None else slab.max
+    1 pit and leave the intact material), over the whole group of ``slab``. Collective."""
     rise = -math.inf
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
         after = bs.damage + n * bc.damage_rate
         intact = after < 1.0
-        top = group_max(float(after[intact].max()) if intact.any() else 0.0)
-        rise = max(rise, top - group_max(float(bs.damage.max())))
+        top = slab.max(float(after[intact].max()) if intact.any() else 0.0)
+        rise = max(rise, top - slab.max(float(bs.damage.max())))
     return rise
 
 
-def _new_pits(state: LifeState, result: CycleResult, n: float,
-              slab: Slab | None = None) -> float:
+def _new_pits(state: LifeState, result: CycleResult, n: float, slab: Slab) -> float:
     """The largest share of a body's window columns that ``n`` cycles would newly pit (an
-    intact column some layer of which reaches D = 1); over the whole window when ``slab`` is
-    given (collective)."""
+    intact column some layer of which reaches D = 1), over the whole window (the rows of
+    every rank of ``slab``). Collective."""
     share = 0.0
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
-        failing = ((bs.damage + n * bc.damage_rate) >= 1.0).any(axis=0)
-        if slab is not None:
-            failing = slab.allgather_rows(failing)
+        failing = slab.allgather_rows(((bs.damage + n * bc.damage_rate) >= 1.0).any(axis=0))
         share = max(share, float((failing & ~bs.pitted).mean()))
     return share
 
@@ -387,23 +239,24 @@ def _wear_limited(wear: WearRate, limit: float, n: float, integration: str,
     return lo
 
 
-def sub_block_cycles(state: LifeState, result: CycleResult, left: float,
-                     params: LifeParams, slab: Slab | None = None) -> float:
-    """Cycles of the next sub-block: the adaptive split (module docstring); the whole of
+def sub_block_cycles(state: LifeState, result: CycleResult, left: float, life: LifeSpec,
+                     slab: Slab) -> float:
+    """Cycles of the next sub-block: the adaptive split (module docstring) by the limits of
+    ``life`` (``scene.life``), over the whole group of ``slab`` (collective); the whole of
     ``left`` in the paper's scheme (``integration = "paper"``)."""
-    if params.integration == "paper":
+    if life.integration == "paper":
         return left
-    floor = params.block / params.max_splits
+    floor = life.block / life.max_splits
     n = left
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
         if bs.rq0 > 0:
-            n = min(n, _wear_limited(bc.wear, params.max_wear_fraction * bs.rq0, n,
-                                     params.wear_integration, ~bs.pitted))
+            n = min(n, _wear_limited(bc.wear, life.max_wear_fraction * bs.rq0, n,
+                                     life.wear_integration, ~bs.pitted))
     n = max(n, min(floor, left))
-    while n > floor and (_damage_rise(state, result, n, slab) > params.max_damage_step
-                         or _new_pits(state, result, n, slab) > params.max_pit_step):
+    while n > floor and (_damage_rise(state, result, n, slab) > life.max_damage_step
+                         or _new_pits(state, result, n, slab) > life.max_pit_step):
         n = max(0.5 * n, floor)
-    if left - n <= 1e-9 * params.block:
+    if left - n <= 1e-9 * life.block:
         n = left
     return min(n, left)
 
@@ -437,18 +290,18 @@ def rms_slope(heights: np.ndarray, dx: float) -> float:
     return float(np.sqrt(np.mean(((np.roll(heights, -1, axis=0) - heights) / dx) ** 2)))
 
 
-def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
+def run_block(cycle: PositionCycle, state: LifeState, life: LifeSpec,
               cycles: float | None = None,
               on_progress: Callable[..., None] | None = None) -> BlockRecord:
-    """One block of ΔN load cycles (or ``cycles``): split adaptively
-    (``integration = "adaptive"``) or in one step on the block's starting surfaces (the
-    paper's scheme, ``"paper"``); returns its record. Collective over the cycle's group
-    (every rank returns the same record).
+    """One block of ΔN = ``life.block`` load cycles (or ``cycles``) with the settings of
+    ``life`` (``scene.life``): split adaptively (``integration = "adaptive"``) or in one step
+    on the block's starting surfaces (the paper's scheme, ``"paper"``); returns its record.
+    Collective over the cycle's group (every rank returns the same record).
     ``on_progress(cycles_done, block_cycles, sub_block, step, steps)``: called after every
     time step of every sub-block's load cycle (progress reports; changes nothing)."""
     t0 = time.perf_counter()
     slab = cycle.slab
-    left = params.block if cycles is None else cycles
+    left = life.block if cycles is None else cycles
     subs, phi_acc, plastic_acc, n_done, wear_step, pit_step = 0, 0.0, 0.0, 0.0, 0.0, 0.0
     new_pits, low_pits = [0, 0], [0, 0]
     added, low_added, deep = [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]
@@ -457,14 +310,15 @@ def run_block(cycle: PositionCycle, state: LifeState, params: LifeParams,
     while left > 0:
         step = None if on_progress is None else (
             lambda j, d=n_done, s=subs + 1: on_progress(d, total, s, j, cycle.steps))
-        result = evaluate_cycle(cycle, state, params, warm, step)
-        n = sub_block_cycles(state, result, left, params, slab)
+        surfaces, pits = contact_surfaces(state, cycle.grid, life.pit_contact)
+        result = cycle.evaluate(surfaces, pits, warm, step)
+        n = sub_block_cycles(state, result, left, life, slab)
         for i, bc in enumerate(result.bodies):
             intact = ~state.bodies[i].pitted[slab.rows]
             deep[i] = max(deep[i], slab.max(deep_damage_ratio(
-                bc.damage_rate, DEEP_SIGNIFICANT / params.block, intact)))
+                bc.damage_rate, DEEP_SIGNIFICANT / life.block, intact)))
         with event("apply_cycles"):
-            steps = apply_cycles(state, result, n, cycle.z, slab, params.wear_integration)
+            steps = apply_cycles(state, result, n, cycle.z, slab, life.wear_integration)
         for i, (bs, st) in enumerate(zip(state.bodies, steps, strict=True)):
             if bs.rq0 > 0:
                 wear_step = max(wear_step, st.shape_change / bs.rq0)

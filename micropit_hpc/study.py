@@ -18,17 +18,10 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from micropit_hpc.conditions import ContactStudy, contact_study
-from micropit_hpc.cycle import PositionCycle, body_surface
+from micropit_hpc.cycle import PositionCycle, body_surface, rainflow_steps
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.film import iso_lambda_gf
-from micropit_hpc.life import (
-    BlockRecord,
-    LifeParams,
-    LifeState,
-    initial_state,
-    rainflow_steps,
-    run_block,
-)
+from micropit_hpc.life import BlockRecord, LifeState, initial_state, run_block
 from micropit_hpc.plan import (
     Plan,
     Window,
@@ -51,8 +44,10 @@ SUMMARY_COLUMNS = ("item", "position", "S", "p0_GPa", "Lambda", "k_lub_s", "body
 
 
 class ItemRun:
-    """The cycle, parameters and evolving state of one work item. ``surfaces``: both bodies'
-    patches on the window grid at scale 1 (default: the scene's patch ``item.patch``)."""
+    """The cycle and evolving state of one work item. ``surfaces``: both bodies' patches on
+    the window grid at scale 1 (default: the scene's patch ``item.patch``). The settings are
+    the scene's: ``life`` (``scene.life``) for the blocks, the cycle's (``scene.fatigue``,
+    ``scene.wear`` and the item's k_lub) for the load cycle."""
 
     def __init__(self, scene: Scene, item: WorkItem, base: ContactStudy | None = None,
                  log: Callable[[str], None] | None = None, comm=None,
@@ -70,10 +65,10 @@ class ItemRun:
         if item.scale != 1.0:
             surfaces = tuple(s.scaled_to_rq(s.rq * item.scale) if s.rq > 0 else s
                              for s in surfaces)
-        self.params = LifeParams.from_scene(scene, item.k_lub)
+        self.life = scene.life          # the blocks' settings: the scene's [life], not a copy
         steps = scene.window.steps
-        if self.params.counting == "rainflow":
-            cut = self.params.peak_spacing_min_cells * grid.dx
+        if scene.fatigue.counting == "rainflow":
+            cut = scene.fatigue.peak_spacing_min_cells * grid.dx
             lam_c = min(s.peak_spacing_x(cut) if s.rq > 0 else math.inf for s in surfaces)
             steps = rainflow_steps(study.conditions[item.position - 1], steps, lam_c)
             if steps > scene.window.steps and log and (comm is None or comm.rank == 0):
@@ -82,12 +77,12 @@ class ItemRun:
                     f"{lam_c * 1e6:.3g} µm)")
         self.surfaces = surfaces
         self.cycle = PositionCycle(study, item.position, surfaces=surfaces, steps=steps,
-                                   comm=comm, window=window)
+                                   comm=comm, window=window, k_lub=item.k_lub)
         self.state: LifeState = initial_state(self.cycle)
 
     def run_block(self, cycles: float | None = None,
                   on_progress: Callable[..., None] | None = None) -> BlockRecord:
-        return run_block(self.cycle, self.state, self.params, cycles, on_progress)
+        return run_block(self.cycle, self.state, self.life, cycles, on_progress)
 
 
 def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord], lambda_: float,

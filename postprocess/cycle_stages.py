@@ -20,7 +20,6 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from micropit_hpc.conditions import contact_study
-from micropit_hpc.life import evaluate_cycle
 from micropit_hpc.plan import WorkItem
 from micropit_hpc.scene import load_scene
 from micropit_hpc.study import ItemRun
@@ -43,7 +42,7 @@ def main() -> int:
           "fail_within_1_cycle_pct,fail_within_1M_pct")
     for pos in a.position or range(1, n_pos + 1):
         run = ItemRun(scene, WorkItem(0, pos, a.k_lub, 1.0, a.patch), base=study)
-        res = evaluate_cycle(run.cycle, run.state, run.params)
+        res = run.cycle.evaluate(run.surfaces)             # the initial surfaces: no pits
         c, b = run.cycle.cond, res.bodies[0]
         worst = b.damage_rate.max(axis=0)                  # per column, over depth
         print(f"{pos},{c.S:.5f},{c.p0 / 1e9:.4f},{res.phi:.4f},{res.solid_fraction:.4f},"

@@ -175,3 +175,14 @@ def test_measured_surface_from_a_scene(tmp_path):
     np.save(tmp_path / "flank.npy", 3 * z)
     with pytest.raises(SceneError, match=r"body1\.Rq_um = 2\.892.*rescale = true"):
         PositionCycle(contact_study(load_scene(path)), 3)
+
+
+def test_every_surface_kind_and_contact_level_has_its_maker():
+    """The tables that choose a body's surface maker and a step's contact solver cover every
+    surface kind a scene may name and every level a position may get."""
+    from micropit_hpc.cycle import SURFACE_MAKERS
+    from micropit_hpc.plan import LEVELS
+    from micropit_hpc.scene import SURFACE_KINDS
+
+    assert set(SURFACE_MAKERS) == set(SURFACE_KINDS)
+    assert set(PositionCycle._CONTACT) == set(LEVELS)

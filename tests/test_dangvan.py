@@ -1,6 +1,7 @@
 """Dang Van (MODEL.md §4.3) against closed forms, and the enclosing ball against its optimality
 conditions."""
 
+import dataclasses
 import math
 
 import numpy as np
@@ -14,6 +15,7 @@ from micropit_hpc.fatigue.dangvan import (
     mesoscopic_shear,
 )
 from micropit_hpc.fatigue.sn import WoehlerLine
+from micropit_hpc.scene import FatigueSpec
 
 
 def _voigt_tensor(v):
@@ -118,7 +120,7 @@ def test_history_shape_checked():
 
 
 def test_woehler_line_numbers_of_appendix_A4():
-    w = WoehlerLine()
+    w = WoehlerLine.from_spec(FatigueSpec())          # the scene's default: the paper's line
     np.testing.assert_allclose(w.strength([1e6, 3e6, 1e7]) * math.sqrt(3) / 1e6,
                                [1047.4, 1003.4, 955.3], atol=0.1)
     tau = np.array([400e6, 552e6, 700e6])
@@ -127,7 +129,7 @@ def test_woehler_line_numbers_of_appendix_A4():
                                rtol=1e-12)
     assert w.damage(np.array([-1e6, 0.0])).tolist() == [0.0, 0.0]
     with pytest.raises(ValueError, match="must be negative"):
-        WoehlerLine(A=40e6)
+        WoehlerLine.from_spec(dataclasses.replace(FatigueSpec(), A=40e6))
 
 
 def test_enclosing_ball_of_a_tiny_path_far_from_the_origin():

@@ -8,7 +8,11 @@ import numpy as np
 import pytest
 
 from micropit_hpc.lubrication.dry import ContactError, ElasticHalfSpaces, solve_dry_contact
+from micropit_hpc.scene import LubricationSpec
 from micropit_hpc.spectral import Grid
+
+#: The scene's solver settings (lubrication.tolerance and max_iterations).
+TOL, MAX_ITER = LubricationSpec().tol, LubricationSpec().max_iter
 
 E, NU = 210e9, 0.3
 E_PRIME = E / (1 - NU**2)          # 2/E' = Σ(1 − ν²)/E for two steel bodies
@@ -29,7 +33,8 @@ def test_sphere_against_hertz_256():
     a = g.lx / 8
     P = 4 * E_STAR * a**3 / (3 * R)
     p0 = 3 * P / (2 * math.pi * a**2)
-    r = solve_dry_contact((X**2 + Y**2) / (2 * R), ElasticHalfSpaces(g, E_PRIME), P / g.lx**2)
+    r = solve_dry_contact((X**2 + Y**2) / (2 * R), ElasticHalfSpaces(g, E_PRIME), P / g.lx**2,
+                          tol=TOL, max_iter=MAX_ITER)
     a_num = math.sqrt(np.count_nonzero(r.contact) * g.dx * g.dy / math.pi)
     assert r.pressure.max() == pytest.approx(p0, rel=0.01)
     assert a_num == pytest.approx(a, rel=0.01)
@@ -45,7 +50,8 @@ def test_cylinder_against_hertz_256():
     b = g.lx / 16
     w = math.pi * E_STAR * b**2 / (4 * R)
     p0 = 2 * w / (math.pi * b)
-    r = solve_dry_contact(X**2 / (2 * R), ElasticHalfSpaces(g, E_PRIME), w / g.lx)
+    r = solve_dry_contact(X**2 / (2 * R), ElasticHalfSpaces(g, E_PRIME), w / g.lx, tol=TOL,
+                          max_iter=MAX_ITER)
     row = r.pressure[:, 0]
     b_moment = 2 * math.sqrt((row * g.x**2).sum() / row.sum())
     assert r.pressure.max() == pytest.approx(p0, rel=0.01)
@@ -67,7 +73,7 @@ def test_westergaard_full_contact():
     """Above p* the surfaces touch everywhere and p = p̄ + p* cos(2πx/λ) exactly."""
     g, lam, gap0, p_star = _westergaard()
     p_mean = 1.5 * p_star
-    r = solve_dry_contact(gap0, ElasticHalfSpaces(g, E_PRIME), p_mean, tol=1e-12)
+    r = solve_dry_contact(gap0, ElasticHalfSpaces(g, E_PRIME), p_mean, tol=1e-12, max_iter=MAX_ITER)
     exact = p_mean + p_star * np.cos(2 * np.pi * g.x / lam)
     assert np.abs(r.pressure[:, 0] - exact).max() < 1e-9 * p_star
     assert r.area_fraction == 1.0
@@ -79,7 +85,7 @@ def test_westergaard_partial_contact():
     sin²(πa/λ) (Johnson eq. 13.12–13.14)."""
     g, lam, gap0, p_star = _westergaard(512)
     p_mean = 0.3 * p_star
-    r = solve_dry_contact(gap0, ElasticHalfSpaces(g, E_PRIME), p_mean)
+    r = solve_dry_contact(gap0, ElasticHalfSpaces(g, E_PRIME), p_mean, tol=TOL, max_iter=MAX_ITER)
     a = lam / math.pi * math.asin(math.sqrt(p_mean / p_star))
     s2a = math.sin(math.pi * a / lam) ** 2
     x = g.x
@@ -110,9 +116,9 @@ def test_pressure_cap_and_load_balance():
     g, gap0 = _rough()
     hs = ElasticHalfSpaces(g, E_PRIME)
     P = 1.0e9
-    elastic = solve_dry_contact(gap0, hs, P)
+    elastic = solve_dry_contact(gap0, hs, P, tol=TOL, max_iter=MAX_ITER)
     p_lim = 0.5 * elastic.pressure.max()
-    r = solve_dry_contact(gap0, hs, P, p_lim=p_lim)
+    r = solve_dry_contact(gap0, hs, P, p_lim=p_lim, tol=TOL, max_iter=MAX_ITER)
     assert r.pressure.max() <= p_lim
     assert r.pressure.min() >= 0.0
     assert r.pressure.mean() == pytest.approx(P, rel=1e-10)
@@ -130,8 +136,9 @@ def test_pressure_cap_and_load_balance():
 def test_warm_start_gives_the_same_answer_faster():
     g, gap0 = _rough(5)
     hs = ElasticHalfSpaces(g, E_PRIME)
-    cold = solve_dry_contact(gap0, hs, 0.8e9, tol=1e-10)
-    warm = solve_dry_contact(gap0, hs, 0.8e9, tol=1e-10, p_init=cold.pressure)
+    cold = solve_dry_contact(gap0, hs, 0.8e9, tol=1e-10, max_iter=MAX_ITER)
+    warm = solve_dry_contact(gap0, hs, 0.8e9, tol=1e-10, max_iter=MAX_ITER,
+                             p_init=cold.pressure)
     assert warm.iterations < cold.iterations
     assert np.abs(warm.pressure - cold.pressure).max() < 1e-6 * cold.pressure.max()
 
@@ -139,9 +146,9 @@ def test_warm_start_gives_the_same_answer_faster():
 def test_zero_load_touches_and_flat_surfaces_carry_uniform_pressure():
     g, gap0 = _rough()
     hs = ElasticHalfSpaces(g, E_PRIME)
-    r = solve_dry_contact(gap0 + 3e-7, hs, 0.0)
+    r = solve_dry_contact(gap0 + 3e-7, hs, 0.0, tol=TOL, max_iter=MAX_ITER)
     assert r.gap.min() == 0.0 and not r.contact.any()
-    flat = solve_dry_contact(np.full(g.shape, 2e-7), hs, 1e9)
+    flat = solve_dry_contact(np.full(g.shape, 2e-7), hs, 1e9, tol=TOL, max_iter=MAX_ITER)
     assert np.all(flat.pressure == 1e9)
 
 
@@ -149,8 +156,8 @@ def test_errors_are_clear():
     g, gap0 = _rough()
     hs = ElasticHalfSpaces(g, E_PRIME)
     with pytest.raises(ContactError, match=r"did not converge.*after 3 iterations"):
-        solve_dry_contact(gap0, hs, 1e9, max_iter=3)
+        solve_dry_contact(gap0, hs, 1e9, tol=TOL, max_iter=3)
     with pytest.raises(ContactError, match="whole window would yield"):
-        solve_dry_contact(gap0, hs, 5e9, p_lim=4.2e9)
+        solve_dry_contact(gap0, hs, 5e9, p_lim=4.2e9, tol=TOL, max_iter=MAX_ITER)
     with pytest.raises(ContactError, match="finite"):
-        solve_dry_contact(gap0, hs, math.nan)
+        solve_dry_contact(gap0, hs, math.nan, tol=TOL, max_iter=MAX_ITER)

@@ -20,17 +20,17 @@ import tomllib
 import numpy as np
 import pytest
 from conftest import SCENES
-from test_life import tiny_doc
+from test_life import evaluate, tiny_doc
 from test_run import _write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle, body_surface
 from micropit_hpc.errors import MicropitError, SceneError
-from micropit_hpc.life import BlockRecord, LifeParams, evaluate_cycle, initial_state, run_block
+from micropit_hpc.life import BlockRecord, initial_state, run_block
 from micropit_hpc.lubrication.dry import ContactError
 from micropit_hpc.plan import WorkItem, reference_half_width, window_grid
-from micropit_hpc.scene import scene_from_dict
+from micropit_hpc.scene import LifeSpec, scene_from_dict
 from micropit_hpc.study import ItemRun
 from micropit_hpc.surfaces import Topography
 
@@ -70,14 +70,14 @@ def _check_cycle(res) -> None:
         assert bc.lam_c > 0.0
 
 
-def _check_block(rec: BlockRecord, state, heights0, params: LifeParams, blocks: int) -> None:
+def _check_block(rec: BlockRecord, state, heights0, life: LifeSpec, blocks: int) -> None:
     """A block's record and the state it leaves: finite, bounded, consistent."""
     for name in ("cycles", "phi", "wall_s", "wear_step", "pit_step"):
         assert math.isfinite(getattr(rec, name)), name
     for name in ("Ap", "max_damage", "wear_mean", "wear_max", "Rq", "n_micro"):
         assert all(math.isfinite(v) for v in getattr(rec, name)), name
-    assert rec.cycles == pytest.approx(blocks * params.block, rel=1e-12)
-    assert 1 <= rec.sub_blocks <= params.max_splits
+    assert rec.cycles == pytest.approx(blocks * life.block, rel=1e-12)
+    assert 1 <= rec.sub_blocks <= life.max_splits
     assert 0.0 <= rec.phi <= 1.0 and 0.0 <= rec.pit_step <= 1.0 and rec.wear_step >= 0.0
     for i, (bs, h0) in enumerate(zip(state.bodies, heights0, strict=True)):
         for name in ("heights", "damage", "wear", "pit_depth"):
@@ -108,8 +108,8 @@ class Recorder:
             self.p_max = max(self.p_max, float(f.pressure.max()))
             return f
 
-        cycle.solve_step = solve_step                   # evaluate_cycle calls the instance's
-        evaluate = evaluate_cycle
+        cycle.solve_step = solve_step                   # evaluate calls the instance's
+        evaluate = cycle.evaluate
 
         def checked_evaluate(*args, **kwargs):
             res = evaluate(*args, **kwargs)
@@ -117,17 +117,17 @@ class Recorder:
             self.cycles.append(res)
             return res
 
-        monkeypatch.setattr("micropit_hpc.life.evaluate_cycle", checked_evaluate)
+        monkeypatch.setattr(cycle, "evaluate", checked_evaluate)
 
 
-def _blocks(cycle, state, params, monkeypatch, blocks=1) -> tuple[list[BlockRecord], Recorder]:
+def _blocks(cycle, state, life, monkeypatch, blocks=1) -> tuple[list[BlockRecord], Recorder]:
     """``blocks`` life blocks of one work item, every step, cycle and block checked."""
     rec = Recorder(cycle, monkeypatch)
     heights0 = [bs.heights.copy() for bs in state.bodies]
     records = []
     for k in range(1, blocks + 1):
-        records.append(run_block(cycle, state, params))
-        _check_block(records[-1], state, heights0, params, k)
+        records.append(run_block(cycle, state, life))
+        _check_block(records[-1], state, heights0, life, k)
     assert rec.steps and rec.cycles
     return records, rec
 
@@ -137,7 +137,7 @@ def _item(doc, k_lub=0.0, scale=1.0, position=1, name="hard.toml") -> ItemRun:
 
 
 def _run_item(run: ItemRun, monkeypatch, blocks=1):
-    return _blocks(run.cycle, run.state, run.params, monkeypatch, blocks)
+    return _blocks(run.cycle, run.state, run.life, monkeypatch, blocks)
 
 
 # ---- 1. Λ from 0.02 to 5 -----------------------------------------------------------------------
@@ -163,7 +163,7 @@ def test_mixed_solutions_follow_lambda():
     phi, solid = [], []
     for lam in (0.02, 0.05, 0.2, 0.5, 1.0, 2.0, 2.99):
         run = _item(doc, scale=TINY_LAMBDA / lam)
-        res = evaluate_cycle(run.cycle, run.state, run.params)
+        res = evaluate(run.cycle, run.state)
         _check_cycle(res)
         phi.append(res.phi)
         solid.append(res.solid_fraction)
@@ -373,8 +373,7 @@ def test_single_spike(tmp_path, base, monkeypatch):
         assert cycle.surfaces[0].heights[SPIKE] == pytest.approx(spike, rel=1e-12)
         assert np.count_nonzero(cycle.surfaces[0].heights) == 3
     state = initial_state(cycle)
-    params = LifeParams.from_scene(scene, 0.0)
-    records, rec = _blocks(cycle, state, params, monkeypatch)
+    records, rec = _blocks(cycle, state, scene.life, monkeypatch)
     pitted = state.bodies[0].pitted
     if base == "none":
         assert rec.p_max < cycle.p_lim and not pitted.any() and records[0].Ap == (0.0, 0.0)
@@ -398,17 +397,17 @@ def test_wear_that_removes_the_roughness_in_one_block(integration, monkeypatch):
     doc["life"]["wear_integration"] = integration
     doc["window"]["steps"] = 4
     run = _item(doc, 1e-8)
-    first = evaluate_cycle(run.cycle, run.state, run.params)
+    first = evaluate(run.cycle, run.state)
     for bs, bc in zip(run.state.bodies, first.bodies, strict=True):
-        assert bc.wear.depth(run.params.block, integration).max() > 10 * bs.rq0
+        assert bc.wear.depth(run.life.block, integration).max() > 10 * bs.rq0
     rq0 = [bs.rq0 for bs in run.state.bodies]
     records, _ = _run_item(run, monkeypatch, blocks=2)
-    assert records[0].sub_blocks == run.params.max_splits
-    assert records[0].wear_step > run.params.max_wear_fraction
+    assert records[0].sub_blocks == run.life.max_splits
+    assert records[0].wear_step > run.life.max_wear_fraction
     for r in records:
         for rq, rq_0 in zip(r.Rq, rq0, strict=True):
             if rq > 2 * rq_0:
-                assert r.wear_step > run.params.max_wear_fraction
+                assert r.wear_step > run.life.max_wear_fraction
 
 
 @pytest.mark.parametrize("splits", [1, 4])
@@ -428,7 +427,7 @@ def test_wear_coefficient_at_the_top_of_its_range(splits, monkeypatch):
         residual, tol, used = float(m[1]), float(m[2]), int(m[3])
         assert residual > tol or used >= run.cycle.scene.lubrication.max_iter, msg
         return
-    assert records[0].wear_step > run.params.max_wear_fraction
+    assert records[0].wear_step > run.life.max_wear_fraction
 
 
 # ---- 8. non-square and prime grids -------------------------------------------------------------

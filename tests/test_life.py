@@ -8,26 +8,24 @@ import numpy as np
 import pytest
 
 from micropit_hpc.conditions import contact_study
-from micropit_hpc.cycle import PositionCycle
+from micropit_hpc.cycle import BodyCycle, CycleResult, PositionCycle, micro_cycles, rainflow_steps
 from micropit_hpc.life import (
-    BodyCycle,
     BodyState,
-    CycleResult,
-    LifeParams,
     LifeState,
     _new_pits,
     apply_cycles,
-    evaluate_cycle,
+    contact_surfaces,
     initial_state,
-    micro_cycles,
-    rainflow_steps,
     run_block,
     shape_change,
     sub_block_cycles,
 )
+from micropit_hpc.parallel import SerialComm
+from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.pits import detach, layer_bottoms, shift_columns
 from micropit_hpc.plan import WorkItem
-from micropit_hpc.scene import scene_from_dict
+from micropit_hpc.scene import LifeSpec, scene_from_dict
+from micropit_hpc.spectral import Grid
 from micropit_hpc.study import ItemRun
 from micropit_hpc.wear import WearRate, archard_wear, to_material_frame
 
@@ -56,6 +54,11 @@ def tiny_doc(slide_roll=(0.0, 0.3), k_lub=(0.0,)):
 def tiny():
     scene = scene_from_dict(tiny_doc(), "tiny.toml")
     return scene, contact_study(scene)
+
+
+def evaluate(cycle: PositionCycle, state: LifeState):
+    """One load cycle on the surfaces the contact sees in ``state`` (as run_block does)."""
+    return cycle.evaluate(*contact_surfaces(state, cycle.grid, cycle.scene.life.pit_contact))
 
 
 # ---- pits and damage columns ------------------------------------------------------------------
@@ -153,15 +156,16 @@ def test_miner_additivity(tiny):
     """Two blocks of ΔN equal one block of 2ΔN when nothing changes (no pits, no wear)."""
     scene, study = tiny
     cyc = PositionCycle(study, 2)
-    res = evaluate_cycle(cyc, initial_state(cyc), LifeParams.from_scene(scene, 0.0))
+    res = evaluate(cyc, initial_state(cyc))
     scaled = CycleResult(bodies=tuple(BodyCycle(damage_rate=b.damage_rate / (10 * max(
         b.damage_rate.max(), 1e-300)), wear=b.wear, tau_rough=b.tau_rough,
         tau_smooth=b.tau_smooth, n_micro=b.n_micro, lam_c=b.lam_c) for b in res.bodies),
         phi=res.phi, solid_fraction=res.solid_fraction, steps=res.steps, wall_s=0.0)
     a, b = initial_state(cyc), initial_state(cyc)
-    apply_cycles(a, scaled, 2.0, cyc.z)
-    apply_cycles(b, scaled, 1.0, cyc.z)
-    apply_cycles(b, scaled, 1.0, cyc.z)
+    how = scene.life.wear_integration
+    apply_cycles(a, scaled, 2.0, cyc.z, cyc.slab, how)
+    apply_cycles(b, scaled, 1.0, cyc.z, cyc.slab, how)
+    apply_cycles(b, scaled, 1.0, cyc.z, cyc.slab, how)
     for x, y in zip(a.bodies, b.bodies, strict=True):
         np.testing.assert_allclose(x.damage, y.damage, rtol=1e-15, atol=0)
         assert x.damage.max() == pytest.approx(0.2)
@@ -179,7 +183,8 @@ def test_damage_column_moves_with_wear(tiny):
     before = [bs.damage.copy() for bs in st.bodies]
     h0 = [bs.heights.copy() for bs in st.bodies]
     delta = 0.5 * cyc.z[1]
-    apply_cycles(st, _fake_result(cyc.grid.shape, cyc.z.size, 0.0, delta / 1e6), 1e6, cyc.z)
+    apply_cycles(st, _fake_result(cyc.grid.shape, cyc.z.size, 0.0, delta / 1e6), 1e6, cyc.z,
+                 cyc.slab, scene.life.wear_integration)
     for bs, d0, h in zip(st.bodies, before, h0, strict=True):
         np.testing.assert_allclose(bs.damage, shift_columns(d0, cyc.z, np.full(h.shape, delta)),
                                    rtol=1e-14)
@@ -190,11 +195,11 @@ def test_damage_column_moves_with_wear(tiny):
 def test_zero_sliding_gives_no_micropits(tiny):
     """S = 0: no micro-cycles (sliding counting), only the smooth macro cycle: A_p = 0."""
     scene, study = tiny
-    cyc = PositionCycle(study, 1)
+    cyc = PositionCycle(study, 1, k_lub=1e-11)
     assert cyc.cond.S == 0.0
     assert micro_cycles(cyc, 1, 20e-6) == 0.0
     st = initial_state(cyc)
-    rec = run_block(cyc, st, LifeParams.from_scene(scene, 1e-11))
+    rec = run_block(cyc, st, scene.life)
     assert rec.Ap == (0.0, 0.0)
     assert rec.max_damage[0] < 1e-6
     assert rec.wear_max == (0.0, 0.0)              # no sliding, no Archard wear
@@ -229,9 +234,9 @@ def test_a_rainflow_life_run_refines_the_steps_and_counts_at_least_the_largest_c
     run = ItemRun(scene, WorkItem(0, 2, 0.0, 1.0, 0), log=said.append)
     assert run.cycle.steps > scene.window.steps
     assert len(said) == 1 and f"to {run.cycle.steps}" in said[0]
-    res = evaluate_cycle(run.cycle, run.state, run.params)
+    res = evaluate(run.cycle, run.state)
     for bc in res.bodies:
-        largest = run.params.woehler.damage(bc.tau_rough)
+        largest = run.cycle.woehler.damage(bc.tau_rough)
         assert largest.max() > 0
         assert (bc.damage_rate >= largest * (1 - 1e-12)).all()
         assert (bc.damage_rate >= 0).all()
@@ -243,18 +248,18 @@ def test_sliding_pits_and_worn_volume(tiny):
     """S = 0.3 with wear: the heights lose exactly the wear plus the pit depths, the wear
     equals the sum of the increments applied, damage stays in [0, 1)."""
     scene, study = tiny
-    cyc = PositionCycle(study, 2)
-    prm = LifeParams.from_scene(scene, 1e-11)
+    cyc = PositionCycle(study, 2, k_lub=1e-11)
+    how = scene.life.wear_integration
     st = initial_state(cyc)
     h0 = [bs.heights.copy() for bs in st.bodies]
-    res = evaluate_cycle(cyc, st, prm)
+    res = evaluate(cyc, st)
     assert res.bodies[0].n_micro > 0
     increments = [np.zeros(cyc.grid.shape), np.zeros(cyc.grid.shape)]
     for n in (2e5, 3e5):
-        res = evaluate_cycle(cyc, st, prm)
+        res = evaluate(cyc, st)
         for i in range(2):
-            increments[i] += res.bodies[i].wear.depth(n, prm.wear_integration)
-        apply_cycles(st, res, n, cyc.z, wear_integration=prm.wear_integration)
+            increments[i] += res.bodies[i].wear.depth(n, how)
+        apply_cycles(st, res, n, cyc.z, cyc.slab, how)
     for bs, h, inc in zip(st.bodies, h0, increments, strict=True):
         np.testing.assert_allclose(bs.wear, inc, rtol=1e-12, atol=0)
         np.testing.assert_allclose(h - bs.heights, bs.wear + bs.pit_depth, rtol=1e-9,
@@ -266,34 +271,37 @@ def test_sliding_pits_and_worn_volume(tiny):
 
 def test_adaptive_split_for_wear_that_would_remove_the_roughness(tiny):
     scene, study = tiny
-    cyc = PositionCycle(study, 2)
+    cyc = PositionCycle(study, 2, k_lub=1e-8)      # removes microns per thousand cycles
     st = initial_state(cyc)
-    prm = LifeParams.from_scene(scene, 1e-8)       # removes microns per thousand cycles
-    res = evaluate_cycle(cyc, st, prm)
+    res = evaluate(cyc, st)
     assert 1e6 * res.bodies[0].wear.rate.max() > 10 * st.bodies[0].rq0
-    rec = run_block(cyc, st, prm)
-    assert rec.sub_blocks == prm.max_splits
-    quiet = LifeParams.from_scene(scene, 0.0)
+    rec = run_block(cyc, st, scene.life)
+    assert rec.sub_blocks == scene.life.max_splits
     st2 = initial_state(PositionCycle(study, 1))
-    assert run_block(PositionCycle(study, 1), st2, quiet).sub_blocks == 1
+    assert run_block(PositionCycle(study, 1), st2, scene.life).sub_blocks == 1      # k_lub 0
 
 
 def test_a_block_records_the_largest_wear_step(tiny):
     """wear_step = the largest wear depth of one sub-block over the initial R_q: at most
     max_wear_fraction when the split can honour it, above it when max_splits stops it."""
     scene, study = tiny
-    cycle = PositionCycle(study, 2)
+    cycle = PositionCycle(study, 2, k_lub=1e-12)
     for splits, within in ((64, True), (1, False)):
         state = initial_state(cycle)
-        params = LifeParams(k_lub=1e-12, max_splits=splits)
-        rec = run_block(cycle, state, params)
+        life = dataclasses.replace(scene.life, max_splits=splits)
+        rec = run_block(cycle, state, life)
         assert rec.wear_step > 0.0
-        assert (rec.wear_step <= params.max_wear_fraction * (1 + 1e-9)) == within
+        assert (rec.wear_step <= life.max_wear_fraction * (1 + 1e-9)) == within
+
+
+def _one_rank(shape: tuple[int, int], layers: int = 3) -> Slab:
+    """The one-rank slab of a window of ``shape`` cells (1 µm) and ``layers`` layers."""
+    return Slab(SerialComm(), Grid(*shape, shape[0] * 1e-6, shape[1] * 1e-6), layers)
 
 
 def _worn_pair(rate: np.ndarray, pitted: np.ndarray | None = None):
     """A state and cycle result whose only action is the explicit wear ``rate`` per cycle on
-    both bodies (R_q 0.2 µm, no damage), for the split rule alone."""
+    both bodies (R_q 0.2 µm, no damage), for the split rule alone, and their one-rank slab."""
     shape = rate.shape
     pitted = np.zeros(shape, bool) if pitted is None else pitted
     bodies = tuple(BodyState(heights=np.zeros(shape), damage=np.zeros((3, *shape)),
@@ -304,25 +312,26 @@ def _worn_pair(rate: np.ndarray, pitted: np.ndarray | None = None):
                       tau_rough=np.zeros((3, *shape)), tau_smooth=np.zeros((3, 1, 1)),
                       n_micro=0.0, lam_c=np.inf)
     return (LifeState(bodies=bodies),
-            CycleResult(bodies=(cycle, cycle), phi=0.0, solid_fraction=0.0, steps=1, wall_s=0.0))
+            CycleResult(bodies=(cycle, cycle), phi=0.0, solid_fraction=0.0, steps=1, wall_s=0.0),
+            _one_rank(shape))
 
 
 def test_the_split_follows_the_shape_change_not_a_uniform_removal():
     """A uniform removal of 50 R_q per block changes nothing the contact sees: one sub-block.
     The same rate raised by 20 % on a quarter of the window is cut to the cycles in which that
     quarter has sunk by max_wear_fraction × R_q against the mean."""
-    params = LifeParams(k_lub=1e-11, max_splits=10_000)
-    mean = 50 * 0.2e-6 / params.block
-    state, result = _worn_pair(np.full((8, 8), mean))
-    assert sub_block_cycles(state, result, params.block, params) == params.block
+    life = LifeSpec(max_splits=10_000)
+    mean = 50 * 0.2e-6 / life.block
+    state, result, slab = _worn_pair(np.full((8, 8), mean))
+    assert sub_block_cycles(state, result, life.block, life, slab) == life.block
     rate = np.full((8, 8), mean)
     rate[:4, :4] *= 1.2
-    state, result = _worn_pair(rate)
-    n = sub_block_cycles(state, result, params.block, params)
+    state, result, slab = _worn_pair(rate)
+    n = sub_block_cycles(state, result, life.block, life, slab)
     change = shape_change(n * rate, np.ones(rate.shape, bool))
-    assert change == pytest.approx(params.max_wear_fraction * 0.2e-6, rel=1e-5)
+    assert change == pytest.approx(life.max_wear_fraction * 0.2e-6, rel=1e-5)
     # the bump stands 0.15 × mean above the window's mean rate (a quarter of it at 1.2 × mean)
-    assert n == pytest.approx(params.max_wear_fraction * 0.2e-6 / (0.15 * mean), rel=1e-5)
+    assert n == pytest.approx(life.max_wear_fraction * 0.2e-6 / (0.15 * mean), rel=1e-5)
 
 
 def test_pitted_columns_are_left_out_of_the_shape_change():
@@ -334,9 +343,9 @@ def test_pitted_columns_are_left_out_of_the_shape_change():
     rate[pitted] = 0.0
     assert shape_change(rate, ~pitted) == 0.0
     assert shape_change(rate, np.ones(rate.shape, bool)) > 0.9e-12
-    params = LifeParams(k_lub=1e-11, max_splits=10_000)
-    state, result = _worn_pair(rate, pitted)
-    assert sub_block_cycles(state, result, params.block, params) == params.block
+    life = LifeSpec(max_splits=10_000)
+    state, result, slab = _worn_pair(rate, pitted)
+    assert sub_block_cycles(state, result, life.block, life, slab) == life.block
 
 
 def test_a_block_records_the_largest_pit_step(tiny, monkeypatch):
@@ -353,17 +362,17 @@ def test_a_block_records_the_largest_pit_step(tiny, monkeypatch):
     fixed = _fake_result((nx, ny), nz, 0.0, 0.0)
     fixed = dataclasses.replace(fixed, bodies=tuple(
         dataclasses.replace(b, damage_rate=rate) for b in fixed.bodies))
-    monkeypatch.setattr("micropit_hpc.life.evaluate_cycle", lambda *a: fixed)
+    monkeypatch.setattr(cycle, "evaluate", lambda *a: fixed)
     for splits in (10_000, 1):
         state = initial_state(cycle)
-        params = LifeParams(k_lub=0.0, block=block, max_splits=splits, max_damage_step=1e9)
-        rec = run_block(cycle, state, params)
+        life = LifeSpec(block=block, max_splits=splits, max_damage_step=1e9)
+        rec = run_block(cycle, state, life)
         assert all(bs.pitted.all() for bs in state.bodies)
         if splits == 1:
             assert rec.sub_blocks == 1 and rec.pit_step == 1.0
         else:
-            assert 0 < rec.pit_step <= params.max_pit_step
-            assert rec.sub_blocks >= 1 / params.max_pit_step
+            assert 0 < rec.pit_step <= life.max_pit_step
+            assert rec.sub_blocks >= 1 / life.max_pit_step
 
 
 def test_the_split_limits_the_share_of_newly_pitted_columns():
@@ -372,23 +381,22 @@ def test_the_split_limits_the_share_of_newly_pitted_columns():
     max_pit_step of the intact columns; columns already pitted do not count. Without the pit
     limit (and with the damage limit off) the whole block is one sub-block."""
     block = 1e6
-    state, result = _worn_pair(np.zeros((10, 10)))
+    state, result, slab = _worn_pair(np.zeros((10, 10)))
     rate = np.zeros((3, 10, 10))
     rate[0] = (100.0 / (block * np.arange(1, 101))).reshape(10, 10)
     result = dataclasses.replace(result, bodies=tuple(
         dataclasses.replace(b, damage_rate=rate) for b in result.bodies))
-    free = LifeParams(k_lub=0.0, block=block, max_splits=10_000, max_damage_step=1e9,
-                      max_pit_step=1.0)
-    assert sub_block_cycles(state, result, block, free) == block
+    free = LifeSpec(block=block, max_splits=10_000, max_damage_step=1e9, max_pit_step=1.0)
+    assert sub_block_cycles(state, result, block, free, slab) == block
     limited = dataclasses.replace(free, max_pit_step=0.01)
     # halving from ΔN: ΔN/64 pits column 0 only (1 %), ΔN/32 would pit three
-    assert sub_block_cycles(state, result, block, limited) == block / 64
-    assert _new_pits(state, result, block / 32) == pytest.approx(0.03)
+    assert sub_block_cycles(state, result, block, limited, slab) == block / 64
+    assert _new_pits(state, result, block / 32, slab) == pytest.approx(0.03)
     for bs in state.bodies:
         bs.pitted.reshape(-1)[:50] = True
-    assert _new_pits(state, result, block) == pytest.approx(0.5)
-    assert _new_pits(state, result, block / 2) == 0.0
-    assert sub_block_cycles(state, result, block, limited) == block / 2
+    assert _new_pits(state, result, block, slab) == pytest.approx(0.5)
+    assert _new_pits(state, result, block / 2, slab) == 0.0
+    assert sub_block_cycles(state, result, block, limited, slab) == block / 2
 
 
 # ---- wear integration over a sub-block (life.wear_integration) --------------------------------
@@ -441,9 +449,9 @@ def test_relaxed_wear_stays_within_the_elastic_relief_of_a_contact_spot(tiny):
     explicit update digs the contact spots hundreds of R_q deep; the relaxed one removes at most
     the film's share plus the spot's elastic deflection K₀ p/(1 + H_i/H_j) ≤ K₀ p_lim/2."""
     scene, study = tiny
-    cyc = PositionCycle(study, 2)
+    cyc = PositionCycle(study, 2, k_lub=1e-8)
     st = initial_state(cyc)
-    res = evaluate_cycle(cyc, st, LifeParams.from_scene(scene, 1e-8))
+    res = evaluate(cyc, st)
     k0 = cyc.half_spaces.self_compliance
     H1, H2 = scene.body1.hardness, scene.body2.hardness
     for i, (bs, bc) in enumerate(zip(st.bodies, res.bodies, strict=True)):

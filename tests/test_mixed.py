@@ -11,15 +11,20 @@ import pytest
 from micropit_hpc.hertz import elliptical_contact
 from micropit_hpc.lubrication import rheology
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
-from micropit_hpc.lubrication.mixed import (
-    MixedLubrication,
-    MixedParameters,
-    restore_mean,
-    solve_dispersion,
-)
+from micropit_hpc.lubrication.mixed import MixedLubrication, restore_mean, solve_dispersion
+from micropit_hpc.scene import Lubricant, LubricationSpec
 from micropit_hpc.spectral import Grid, rfft_plan
 
 E_PRIME = 210e9 / (1 - 0.3**2)
+#: The scene's contact-solver settings (lubrication.tolerance and max_iterations).
+SOLVER = {"tol": LubricationSpec().tol, "max_iter": LubricationSpec().max_iter}
+
+
+def _settings(eta0: float, alpha: float, p_lim: float = math.inf, **lubrication) -> dict:
+    """The mixed model's settings: the scene's [lubrication] defaults (or ``lubrication``),
+    an oil of η0 and α with Eyring stress 5 MPa, and the pressure cap."""
+    return {"lubrication": LubricationSpec(**lubrication),
+            "lubricant": Lubricant(eta0=eta0, alpha_pv=alpha, tau0=5e6), "p_lim": p_lim}
 
 
 def test_rheology_values():
@@ -57,15 +62,14 @@ def test_v00_pure_rolling_calibration():
     R, eta0, u, alpha, F, a = _v00_contact()
     lam = 0.25 * a
     g = Grid(64, 8, 8 * lam, 8 * lam)            # mode 8 along x has wavelength λ
-    prm = MixedParameters(eta0=eta0, alpha=alpha, tau0=5e6)
     model = MixedLubrication(g, geometry="elliptical", load=F, R=R, b=a, u1=u, u2=u,
-                             h_mean=1e-6, E_prime=E_PRIME, params=prm)
+                             h_mean=1e-6, E_prime=E_PRIME, **_settings(eta0, alpha))
     assert model.moes == pytest.approx((1007.6, 12.05), rel=1e-12)
     _, h_t, _ = model.lubricated_factors(1, 0.5e9, 1e-5)
     assert h_t[8, 0] == pytest.approx(0.739, abs=5e-4)
     printed = MixedLubrication(g, geometry="elliptical", load=F, R=R, b=a, u1=u, u2=u,
                                h_mean=1e-6, E_prime=E_PRIME,
-                               params=MixedParameters(eta0, alpha, 5e6, prefactor=0.8))
+                               **_settings(eta0, alpha, prefactor=0.8))
     assert printed.lubricated_factors(1, 0.5e9, 1e-5)[1][8, 0] == pytest.approx(0.831, abs=1e-3)
 
 
@@ -82,7 +86,7 @@ def test_pure_rolling_clearance_is_the_reduced_roughness():
     r1, r2 = fft.forward(-z1), np.zeros(g.spectral_shape, complex)
     model = MixedLubrication(g, geometry="elliptical", load=F, R=R, b=a, u1=u, u2=u,
                              h_mean=1e-6, E_prime=E_PRIME,
-                             params=MixedParameters(eta0=eta0, alpha=alpha, tau0=5e6))
+                             **_settings(eta0, alpha))
     sol = model.solve((r1, r2), (r1, r2), 0.5e9, 1e-9)
     assert sol.phi == 0.0
     expected = 1e-6 - 0.739 * z1
@@ -100,7 +104,7 @@ def test_complementary_wave_decays_from_the_inlet():
     for eta in (eta0, 100 * eta0):
         model = MixedLubrication(g, geometry="elliptical", load=F, R=R, b=a, u1=u, u2=u,
                                  h_mean=1e-6, E_prime=E_PRIME,
-                                 params=MixedParameters(eta0=eta, alpha=alpha, tau0=5e6))
+                                 **_settings(eta, alpha))
         d = [np.abs(model.lubricated_factors(1, 0.5e9, t)[2][1:, 0]) for t in (1e-6, 1e-5, 1e-4)]
         assert np.all(d[0] <= 1.0) and np.all(d[1] <= d[0]) and np.all(d[2] <= d[1])
         assert d[2].min() < 0.9 * d[0].min()
@@ -134,9 +138,8 @@ def _random_pair(n=64, seed=7):
 
 def _model(g, h_mean, eta0=0.05, S=0.3):
     u1, u2 = 2.0 * (1 + S / 2), 2.0 * (1 - S / 2)
-    prm = MixedParameters(eta0=eta0, alpha=20e-9, tau0=5e6, p_lim=4.2e9)
     return MixedLubrication(g, geometry="line", load=3e5, R=0.01, b=2e-4, u1=u1, u2=u2,
-                            h_mean=h_mean, E_prime=E_PRIME, params=prm)
+                            h_mean=h_mean, E_prime=E_PRIME, **_settings(eta0, 20e-9, 4.2e9))
 
 
 def test_thick_film_has_no_solid_contact():
@@ -156,7 +159,8 @@ def test_vanishing_film_gives_the_dry_solution():
     fft = rfft_plan(g.shape)
     r = (fft.forward(-z1), fft.forward(-z2))
     sol = _model(g, h_mean=1e-12).solve(r, r, 1.0e9, 5e-5)
-    dry = solve_dry_contact(-(z1 + z2), ElasticHalfSpaces(g, E_PRIME), 1.0e9, p_lim=4.2e9)
+    dry = solve_dry_contact(-(z1 + z2), ElasticHalfSpaces(g, E_PRIME), 1.0e9, p_lim=4.2e9,
+                            **SOLVER)
     assert sol.phi == 1.0
     assert np.abs(sol.pressure - dry.pressure).max() < 1e-6 * dry.pressure.max()
     assert np.abs(sol.clearance - dry.gap).max() < 1e-6 * z1.std()

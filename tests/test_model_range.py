@@ -21,7 +21,6 @@ from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.fatigue.sn import WoehlerLine
 from micropit_hpc.life import (
     BlockRecord,
-    LifeParams,
     deep_damage_ratio,
     initial_state,
     rms_slope,
@@ -29,7 +28,7 @@ from micropit_hpc.life import (
 )
 from micropit_hpc.plan import WorkItem, window_grid
 from micropit_hpc.regime import LIMITS, block_flags, block_warning, window_problems
-from micropit_hpc.scene import scene_from_dict
+from micropit_hpc.scene import FatigueSpec, LifeSpec, scene_from_dict
 from micropit_hpc.study import ItemRun
 
 
@@ -42,18 +41,18 @@ def tiny_cycle():
 def test_low_cycle_part_of_the_damage_and_the_cap():
     """N(τ) = 1e4 at √3 τ = B + A ln 1e4 (711 MPa for A = −40, B = 1600 MPa): below it the
     whole damage is low-cycle, above it none; ``cap`` holds 1/N at 1/n_min and nothing else."""
-    sn = WoehlerLine()
+    sn = WoehlerLine.from_spec(FatigueSpec())
     tb = (1600e6 - 40e6 * math.log(1e4)) / math.sqrt(3)
     tau = np.array([0.0, 400e6, tb - 1e3, tb + 1e3, 1.0e9])
     d, low = sn.damage(tau), sn.low_damage(tau)
     assert sn.life(np.array([tb]))[0] == pytest.approx(1e4, rel=1e-12)
     np.testing.assert_array_equal(low, [0.0, 0.0, 0.0, d[3], d[4]])
     assert d[4] == pytest.approx(1 / sn.life(tau[4:])[0], rel=1e-12) and d[4] > 1e-2
-    cap = WoehlerLine(low_cycle="cap", n_min=1e4)
+    cap = WoehlerLine.from_spec(FatigueSpec(low_cycle="cap", n_min=1e4))
     np.testing.assert_allclose(cap.damage(tau), np.minimum(d, 1e-4), rtol=1e-12)
     np.testing.assert_allclose(cap.low_damage(tau), [0, 0, 0, 1e-4, 1e-4], rtol=1e-12)
     with pytest.raises(ValueError, match="low_cycle"):
-        WoehlerLine(low_cycle="clip")
+        WoehlerLine.from_spec(FatigueSpec(low_cycle="clip"))
 
 
 def test_a_block_reports_its_low_cycle_damage_and_pits(tiny_cycle, monkeypatch):
@@ -70,9 +69,9 @@ def test_a_block_reports_its_low_cycle_damage_and_pits(tiny_cycle, monkeypatch):
     fixed = _fake_result((nx, ny), nz, 0.0, 0.0)
     fixed = dataclasses.replace(fixed, bodies=tuple(
         dataclasses.replace(b, damage_rate=rate, damage_low=low) for b in fixed.bodies))
-    monkeypatch.setattr("micropit_hpc.life.evaluate_cycle", lambda *a: fixed)
+    monkeypatch.setattr(cyc, "evaluate", lambda *a: fixed)
     state = initial_state(cyc)
-    rec = run_block(cyc, state, LifeParams(block=1e6, integration="paper"))
+    rec = run_block(cyc, state, LifeSpec(block=1e6, integration="paper"))
     assert rec.Ap == (75.0, 75.0) and rec.sub_blocks == 1
     assert rec.low_cycle_pits == pytest.approx((2 / 3, 2 / 3), rel=1e-12)
     assert rec.low_cycle_damage == pytest.approx((0.5, 0.5), rel=1e-12)   # 2 M against 2 M
@@ -94,13 +93,12 @@ def test_the_paper_scheme_wears_failing_material_away_before_the_pit_check(tiny_
     fixed = dataclasses.replace(fixed, bodies=tuple(
         dataclasses.replace(b, damage_rate=rate) for b in fixed.bodies))
     calls = []
-    monkeypatch.setattr("micropit_hpc.life.evaluate_cycle",
-                        lambda *a: calls.append(1) or fixed)
-    paper = run_block(cyc, state := initial_state(cyc), LifeParams(integration="paper"))
+    monkeypatch.setattr(cyc, "evaluate", lambda *a: calls.append(1) or fixed)
+    paper = run_block(cyc, state := initial_state(cyc), LifeSpec(integration="paper"))
     assert paper.sub_blocks == 1 and len(calls) == 1 and paper.Ap == (0.0, 0.0)
     assert state.bodies[0].wear.max() == pytest.approx(cyc.z[1], rel=1e-12)
     calls.clear()
-    adaptive = run_block(cyc, initial_state(cyc), LifeParams(integration="adaptive"))
+    adaptive = run_block(cyc, initial_state(cyc), LifeSpec(integration="adaptive"))
     assert adaptive.sub_blocks == len(calls) > 1 and adaptive.Ap == (100.0, 100.0)
 
 
@@ -231,16 +229,17 @@ def test_a_run_reports_the_range_in_summary_log_and_results(tmp_path, capsys):
 
 
 def test_the_scene_keys_reach_the_life_loop():
-    """fatigue.n_min / low_cycle and life.integration from a scene file to LifeParams, and a
-    bad value refused naming the key."""
+    """fatigue.n_min / low_cycle and life.integration from a scene file to the load cycle's
+    S–N line and the life loop's settings, and a bad value refused naming the key."""
     from micropit_hpc.errors import SceneError
 
     doc = tiny_doc()
     doc["fatigue"] = {"n_min": 1e5, "low_cycle": "cap"}
     doc["life"]["integration"] = "paper"
-    p = LifeParams.from_scene(scene_from_dict(doc, "keys.toml"), 0.0)
-    assert (p.woehler.n_min, p.woehler.low_cycle, p.integration) == (1e5, "cap", "paper")
-    assert p.woehler.damage(np.array([1.5e9]))[0] == pytest.approx(1e-5)
+    run = ItemRun(scene_from_dict(doc, "keys.toml"), WorkItem(0, 2, 0.0, 1.0, 0))
+    sn = run.cycle.woehler
+    assert (sn.n_min, sn.low_cycle, run.life.integration) == (1e5, "cap", "paper")
+    assert sn.damage(np.array([1.5e9]))[0] == pytest.approx(1e-5)
     doc["life"]["integration"] = "implicit"
     with pytest.raises(SceneError, match=r"life\.integration = .implicit.*adaptive.*paper"):
         scene_from_dict(doc, "keys.toml")

@@ -98,3 +98,31 @@ def test_a_pitted_column_wears_down_with_the_surface_around_it():
     # (8 cells from the step in wear: the 2-cell Gaussian reaches across it by e^-8)
     for i, j, w in ((8, 4, 1e-6), (24, 9, 0.2e-6), (24, 10, 0.2e-6)):
         assert top[i, j] == pytest.approx(h0[i, j] - w, abs=1e-9)
+
+
+def test_the_contact_sees_the_surface_around_unloaded_pits_or_the_pits_themselves():
+    """life.contact_surfaces: ``unloaded`` gives the surface around the pits and each body's
+    pits (which then carry no load in PositionCycle.evaluate); ``geometric`` the pitted heights
+    as they are and no unloaded columns."""
+    from micropit_hpc.life import BodyState, LifeState, _around_pits, contact_surfaces
+    from micropit_hpc.spectral import Grid
+
+    g = Grid(16, 8, 16e-6, 8e-6)
+    rng = np.random.default_rng(5)
+    bodies = []
+    for _ in range(2):
+        pitted = rng.uniform(size=g.shape) < 0.1
+        depth = np.where(pitted, 1e-6, 0.0)
+        wear = np.where(pitted, 0.0, rng.uniform(0, 1e-7, g.shape))
+        h = rng.normal(0.0, 0.2e-6, g.shape) - depth - wear
+        bodies.append(BodyState(heights=h, damage=np.zeros((2, *g.shape)), pitted=pitted,
+                                wear=wear, pit_depth=depth, rq0=0.2e-6))
+    state = LifeState(bodies=tuple(bodies))
+    tops, pits = contact_surfaces(state, g, "unloaded")
+    for top, mask, bs in zip(tops, pits, state.bodies, strict=True):
+        np.testing.assert_array_equal(top.heights, _around_pits(bs))
+        assert mask is bs.pitted and (top.dx, top.dy) == (g.dx, g.dy)
+    tops, pits = contact_surfaces(state, g, "geometric")
+    assert pits is None
+    for top, bs in zip(tops, state.bodies, strict=True):
+        np.testing.assert_array_equal(top.heights, bs.heights)

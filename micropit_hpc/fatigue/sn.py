@@ -22,8 +22,12 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from micropit_hpc.scene import FatigueSpec
 
 __all__ = ["LOW_CYCLE", "WoehlerLine"]
 
@@ -36,12 +40,18 @@ _MAX_EXP = 700.0      # exp(700) ≈ 1e304: a damage per cycle this large means 
 @dataclass(frozen=True)
 class WoehlerLine:
     """σ_f = A ln N + B on σ_f = √3 τ_DV; A < 0 and B in Pa. ``n_min``: the fewest cycles the
-    line's data cover; ``low_cycle``: ``extrapolate`` or ``cap`` below them."""
+    line's data cover; ``low_cycle``: ``extrapolate`` or ``cap`` below them. The scene's
+    ``[fatigue]`` table declares them with their defaults (:meth:`from_spec`)."""
 
-    A: float = -40e6
-    B: float = 1600e6
-    n_min: float = 1e4
-    low_cycle: str = "extrapolate"
+    A: float
+    B: float
+    n_min: float
+    low_cycle: str
+
+    @classmethod
+    def from_spec(cls, spec: FatigueSpec) -> WoehlerLine:
+        """The line of the scene's fatigue settings (``scene.fatigue``)."""
+        return cls(spec.A, spec.B, spec.n_min, spec.low_cycle)
 
     def __post_init__(self):
         if not (self.A < 0 and math.isfinite(self.A)):

@@ -134,7 +134,7 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
 
 
 def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pressure: float,
-                      p_lim: float = math.inf, tol: float = 1e-8, max_iter: int = 2000,
+                      p_lim: float = math.inf, *, tol: float, max_iter: int,
                       p_init: np.ndarray | None = None) -> DryContact:
     """Load-controlled elastic–perfectly-plastic contact of the undeformed gap ``gap0``.
 
@@ -147,7 +147,9 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     points at p_lim are held at the cap, the elastic problem is solved on the rest, points whose
     elastic pressure exceeds the cap join the set and points of the set whose gap opens leave
     it, until the set no longer changes. ``p_init`` warm-starts the iteration (e.g. the previous
-    time step's pressure); ``max_iter`` bounds the total number of CG steps.
+    time step's pressure); ``max_iter`` bounds the total number of CG steps. ``tol`` and
+    ``max_iter`` are the scene's ``lubrication.tolerance`` and ``lubrication.max_iterations``
+    (:class:`~micropit_hpc.scene.LubricationSpec`), which the callers pass.
 
     Raises :class:`ContactError` when the load cannot be carried (P ≥ p_lim) or the iteration
     does not converge.

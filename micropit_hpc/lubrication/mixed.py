@@ -38,6 +38,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -46,26 +47,10 @@ from micropit_hpc.lubrication import rheology
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
 from micropit_hpc.spectral import Grid, rfft_plan
 
+if TYPE_CHECKING:
+    from micropit_hpc.scene import Lubricant, LubricationSpec
+
 CALIBRATED_PREFACTOR = rheology.calibrated_prefactor()
-
-
-@dataclass(frozen=True)
-class MixedParameters:
-    """Settings of the mixed model (SI). ``prefactor`` is c_nn of ∇_nn (calibrated default,
-    :func:`~.rheology.calibrated_prefactor`)."""
-
-    eta0: float
-    alpha: float
-    tau0: float
-    p_lim: float = math.inf
-    prefactor: float = CALIBRATED_PREFACTOR
-    fit_c1: float = 0.15
-    fit_c2: float = 0.015
-    fluid_share: str = "scaled"
-    combine: str = "contact"
-    tol: float = 1e-8
-    max_iter: int = 2000
-    film_tol: float = 1e-4
 
 
 @dataclass(frozen=True)
@@ -117,20 +102,27 @@ class MixedLubrication:
 
     ``geometry``, ``load``, ``R``, ``b`` describe the macro contact (line: load per unit
     length; elliptical: total load, R = R_x, b the semi-axis along rolling); ``h_mean`` is the
-    smooth central film h̄; ``u1``, ``u2`` the surface speeds.
+    smooth central film h̄; ``u1``, ``u2`` the surface speeds. The settings are the scene's:
+    ``lubrication`` (its tolerance, iteration limit, film tolerance, fluid share, combination
+    and amplitude prefactor c_nn of ∇_nn, the calibrated one when not given,
+    :func:`~.rheology.calibrated_prefactor`), the ``lubricant`` (η0, α, Eyring τ0) and the
+    pressure cap ``p_lim`` = p_lim_hardness × the smaller hardness [Pa].
     """
 
     def __init__(self, grid: Grid, *, geometry: str, load: float, R: float, b: float,
                  u1: float, u2: float, h_mean: float, E_prime: float,
-                 params: MixedParameters):
-        self.grid, self.params = grid, params
+                 lubrication: LubricationSpec, lubricant: Lubricant, p_lim: float):
+        self.grid, self.spec, self.lubricant = grid, lubrication, lubricant
+        self.p_lim = float(p_lim)
+        self.prefactor = (CALIBRATED_PREFACTOR if lubrication.prefactor is None
+                          else lubrication.prefactor)
         self.E_prime, self.h_mean = float(E_prime), float(h_mean)
         self.u = (float(u1), float(u2))
         self.u_mean = 0.5 * (u1 + u2)
         self.hs = ElasticHalfSpaces(grid, E_prime)
         self._fft = rfft_plan(grid.shape)
-        M, L = rheology.moes_parameters(geometry, load, R, E_prime, params.eta0, self.u_mean,
-                                        params.alpha)
+        M, L = rheology.moes_parameters(geometry, load, R, E_prime, lubricant.eta0, self.u_mean,
+                                        lubricant.alpha_pv)
         self.moes = (M, L)
         # Venner–Lubrecht wavelength parameter of every mode, before the sliding correction
         kx, ky = np.abs(grid.kx), grid.ky
@@ -155,11 +147,11 @@ class MixedLubrication:
     def lubricated_factors(self, body: int, p_mean: float, t: float):
         """(h_a/r, h_t/r, decay) of surface ``body`` (1 or 2) per mode at mean pressure p̄ and
         time t since the window entered: H_lub,i = (h_a/r) r_i(t) + (h_t/r − h_a/r) r_i(0) D."""
-        g, prm = self.grid, self.params
+        g, oil = self.grid, self.lubricant
         ui, uj = self.u[body - 1], self.u[2 - body]
         ub, h, Ep = self.u_mean, self.h_mean, self.E_prime
-        eta = rheology.barus_viscosity(prm.eta0, prm.alpha, p_mean)
-        eta_x, eta_y = rheology.eyring_viscosities(eta, prm.tau0, abs(ui - uj) / h)
+        eta = rheology.barus_viscosity(oil.eta0, oil.alpha_pv, p_mean)
+        eta_x, eta_y = rheology.eyring_viscosities(eta, oil.tau0, abs(ui - uj) / h)
         B = float(rheology.bulk_modulus(p_mean))
         kx, ky, kappa = g.kx, g.ky, g.kappa
         kap = np.where(kappa > 0, kappa, 1.0)
@@ -173,8 +165,8 @@ class MixedLubrication:
         with np.errstate(invalid="ignore", divide="ignore"):
             K = 1 - np.tanh(0.25 * np.abs(Q) / np.where(self.nabla > 0, self.nabla, 1.0))
         base = max((1 + S_i) / 2, 0.0)
-        nabla_nn = prm.prefactor * self.nabla * base ** (0.1 + 0.5 * K)
-        h_t = rheology.amplitude_ratio(nabla_nn, prm.fit_c1, prm.fit_c2)
+        nabla_nn = self.prefactor * self.nabla * base ** (0.1 + 0.5 * K)
+        h_t = rheology.amplitude_ratio(nabla_nn)     # the [V00] fit the prefactor is calibrated on
         # complementary wave: decay e^{i(ψ − k_x u_i/ū) ū t}, |D| ≤ 1
         a = kx * ui / ub + 0 * ky
         psi, _ = solve_dispersion(a, Ep * h**3 / (48 * ub), h * Ep / (4 * B), ky + 0 * kx,
@@ -223,7 +215,7 @@ class MixedLubrication:
         trial load fraction of :data:`PHI_SCAN` start from the pressure they had in the last
         evaluation, the root search tries the last evaluation's root first (inside the
         bracket) and starts its solves from that root's pressure, and the dict is updated."""
-        prm, fft, g = self.params, self._fft, self.grid
+        prm, fft, g = self.spec, self._fft, self.grid
         r_tot = r_now[0] + r_now[1]
         r_tot = r_tot.copy()
         r_tot[0, 0] = 0.0
@@ -242,7 +234,7 @@ class MixedLubrication:
             if warm is not None:
                 start = warm.get(phi if phi in PHI_SCAN else "root", start)
             sol = solve_dry_contact(fft.inverse(clearance_spectrum(phi)), self.hs, phi * p_mean,
-                                    p_lim=prm.p_lim, tol=prm.tol, max_iter=prm.max_iter,
+                                    p_lim=self.p_lim, tol=prm.tol, max_iter=prm.max_iter,
                                     p_init=start)
             state["iters"] += sol.iterations
             if sol.pressure.any():
@@ -307,7 +299,7 @@ class MixedLubrication:
         dp = H - r_tot
         dp[0, 0] = 0.0
         p = self._fft.inverse(dp * self.hs.stiffness)
-        p = restore_mean(p, p_mean, self.params.p_lim)
+        p = restore_mean(p, p_mean, self.p_lim)
         return MixedSolution(p, clearance, float(phi), int(iters), float(film_mean))
 
 
