@@ -1,5 +1,5 @@
 """One load cycle at one contact position: the travelling window, its time steps and what the
-cycle does to each body (MODEL.md §4).
+cycle does to each body (docs/model.md §4).
 
 A load cycle is one passage of the surfaces through the contact. The window (a periodic patch
 of L_x × L_y, default 2 b_ref square) travels with ū from the inlet x_c = −b to the outlet
@@ -13,10 +13,10 @@ the window centre, so that σ_zz(0) = −p and σ_xz(0) = −q hold exactly (doc
 
 :meth:`PositionCycle.evaluate` runs the whole cycle on the surfaces it is given: the contact at
 every step, the stresses and Dang Van per body, the damage per cycle (S–N line and cycle
-counting) and the Archard wear per cycle (MODEL.md §4.1–§4.6). Its settings are the scene's
+counting) and the Archard wear per cycle (docs/model.md §4.1–§4.6). Its settings are the scene's
 ``[lubrication]``, ``[fatigue]`` and ``[wear]`` tables and the work item's k_lub; which surfaces
 a cycle sees, and what its rates do over a block, is the life loop's (:mod:`micropit_hpc.life`,
-MODEL.md §5).
+docs/model.md §5).
 """
 
 from __future__ import annotations
@@ -139,7 +139,7 @@ SURFACE_MAKERS: dict[str, Callable[[Scene, int, Grid, tuple[int, ...]], Topograp
 
 
 def body_surface(scene: Scene, body: int, grid: Grid, patch: int = 0) -> Topography:
-    """Topography of body 1 or 2 on the window grid (MODEL.md §3), from its [bodyN.surface]
+    """Topography of body 1 or 2 on the window grid (docs/model.md §3), from its [bodyN.surface]
     (:data:`SURFACE_MAKERS`; a body with R_q = 0 is smooth whatever its kind).
 
     ``patch`` numbers the independent synthetic patches of a study (``study.patches``): patch 0
@@ -153,7 +153,7 @@ def body_surface(scene: Scene, body: int, grid: Grid, patch: int = 0) -> Topogra
 @dataclass(frozen=True)
 class StepFields:
     """Contact at one time step (SI, window frame). ``traction1``/``traction2`` are the
-    friction tractions on each body along +x, q_i = μ p sign(u_j − u_i) (MODEL.md §1)."""
+    friction tractions on each body along +x, q_i = μ p sign(u_j − u_i) (docs/model.md §1)."""
 
     position: int
     step: int
@@ -209,7 +209,7 @@ class CycleResult:
 
 
 def micro_cycles(cycle: PositionCycle, body: int, lam_c: float) -> float:
-    """n_μ,i = 2b |u1 − u2| / (u_i λ_c,j) micro-cycles per load cycle (MODEL.md §4.4): the
+    """n_μ,i = 2b |u1 − u2| / (u_i λ_c,j) micro-cycles per load cycle (docs/model.md §4.4): the
     counterface j slides 2b|u1 − u2|/u_i past a point of body i while it crosses the contact."""
     c = cycle.cond
     u_i = c.u1 if body == 1 else c.u2
@@ -219,7 +219,7 @@ def micro_cycles(cycle: PositionCycle, body: int, lam_c: float) -> float:
 
 
 def rainflow_steps(c: ContactConditions, steps: int, lam_c: float) -> int:
-    """Time steps for rainflow counting at contact ``c`` (MODEL.md §4.4): the relative slip per
+    """Time steps for rainflow counting at contact ``c`` (docs/model.md §4.4): the relative slip per
     step 2b|S|/m must not exceed λ_c/4, so m ≥ 8 b |S| / λ_c; never fewer than ``steps``."""
     if not math.isfinite(lam_c) or lam_c <= 0:
         return steps
@@ -228,7 +228,7 @@ def rainflow_steps(c: ContactConditions, steps: int, lam_c: float) -> int:
 
 class PositionCycle:
     """The window, surfaces and solvers of one position of a study, and its load cycle
-    (MODEL.md §4).
+    (docs/model.md §4).
 
     ``comm``: the ranks of the work item's group (default: this rank alone). With several
     ranks the contact of a step is solved on the group root and broadcast (it is 2-D and
@@ -320,7 +320,7 @@ class PositionCycle:
     # ---- one step ----------------------------------------------------------------------------
     def solve_step(self, step: int, p_init: np.ndarray | None = None,
                    warm: dict | None = None) -> StepFields:
-        """Contact at time step ``step`` (MODEL.md §4.1); collective over the group: the
+        """Contact at time step ``step`` (docs/model.md §4.1); collective over the group: the
         root solves and every rank gets its fields. ``p_init``: a warm start (the previous
         step's pressure); ``warm``: a dict the caller keeps for this step from one load-cycle
         evaluation to the next, whose pressures (the last evaluation's at this step) take
@@ -467,8 +467,8 @@ class PositionCycle:
         return field
 
     def macro_history(self, body: int, mu_signed: float, samples: int) -> np.ndarray:
-        """The smooth load cycle of ``body`` (MODEL.md §4.4 "macro cycle"): the Hertz field with
-        the mean traction μ̄ p_H at x from −3b to 3b (``samples`` points) followed by the
+        """The smooth load cycle of ``body`` (docs/model.md §4.4 "macro cycle"): the Hertz field
+        with the mean traction μ̄ p_H at x from −3b to 3b (``samples`` points) followed by the
         unloaded state, at every depth layer. Shape (samples + 1, 6, N_z, 1, n_y') with
         n_y' = 1 for a line contact and n_y for an elliptical one (the window rows)."""
         c = self.cond
@@ -487,7 +487,7 @@ class PositionCycle:
     def evaluate(self, surfaces: tuple[Topography, Topography],
                  pits: tuple[np.ndarray, np.ndarray] | None = None, warm: dict | None = None,
                  on_step: Callable[[int], None] | None = None) -> CycleResult:
-        """One load cycle on ``surfaces`` (MODEL.md §4): contact at every step, stresses and
+        """One load cycle on ``surfaces`` (docs/model.md §4): contact at every step, stresses and
         Dang Van per body, damage and wear per cycle. Collective over the group (:meth:`solve_step`,
         :meth:`stresses`); the damage of each body holds this rank's slab rows.
 

@@ -1,14 +1,14 @@
-"""The life simulation at one contact point: blocks of ΔN load cycles (MODEL.md §5).
+"""The life simulation at one contact point: blocks of ΔN load cycles (docs/model.md §5).
 
 Per block: the surfaces the contact sees from the state of both bodies (:func:`contact_surfaces`)
 → one load-cycle evaluation on them (:meth:`PositionCycle.evaluate
-<micropit_hpc.cycle.PositionCycle.evaluate>`, MODEL.md §4): damage per cycle d(z, x, y) (Dang
+<micropit_hpc.cycle.PositionCycle.evaluate>`, docs/model.md §4): damage per cycle d(z, x, y) (Dang
 Van, S–N line, cycle counting) and wear per cycle Δh(x, y) (Archard) of each body → Miner's rule
 D += ΔN d, wear removed and the damage columns moved up, micropits where D ≥ 1 → the state of
 the next block. The settings are the scene's ``[life]`` table (:class:`~micropit_hpc.scene.
 LifeSpec`), passed as it is; the load cycle's own (fatigue, wear) are the cycle's.
 
-**Adaptive blocks [choice]** (MODEL.md §5): a block is split into sub-blocks, each evaluated on
+**Adaptive blocks [choice]** (docs/model.md §5): a block is split into sub-blocks, each evaluated on
 the surfaces the previous one left, when in one go it would change the shape of a body's surface
 by more than ``max_wear_fraction`` of its initial R_q anywhere, or raise the largest damage of
 the intact material by more than ``max_damage_step``, or newly pit more than ``max_pit_step``
@@ -43,7 +43,7 @@ removes it before the check (docs/life.md, "Two time integrations").
 
 **Wear integration [choice]** (``wear_integration``, :mod:`micropit_hpc.wear`): the wear of a
 sub-block is ``relaxed`` (default: the stiff solid-contact part integrated as the linearised
-pressure relief it causes) or ``explicit`` (n Δh_i, MODEL.md §4.6 as written). The split's
+pressure relief it causes) or ``explicit`` (n Δh_i, docs/model.md §4.6 as written). The split's
 wear limit applies to the integrated depth.
 
 Units: SI (metres, pascals, cycles). No I/O. **Collective** over the work item's group (the
@@ -122,7 +122,7 @@ def _around_pits(bs: BodyState) -> np.ndarray:
     wear of the intact columns around it (a Gaussian of 2 cells, periodic, normalised over the
     intact columns; the mean of all intact columns inside a pit too large for it) less its own.
     Without wear this is the pre-pit surface exactly: a pitted asperity keeps its shape and
-    the surface around it its load path (MODEL.md §4.5, docs/life.md)."""
+    the surface around it its load path (docs/model.md §4.5, docs/life.md)."""
     h = bs.heights + bs.pit_depth
     if not bs.pitted.any() or bs.pitted.all() or not bs.wear.any():
         return h
@@ -152,7 +152,7 @@ def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
                  wear_integration: str) -> list[BodyStep]:
     """Advance both bodies by ``n`` load cycles at the rates of ``result`` (in place):
     Miner's rule, wear (heights down, damage columns up; ``life.wear_integration``), then
-    micropits (MODEL.md §4.4–§4.6). ``slab``: the rows of the damage this rank holds
+    micropits (docs/model.md §4.4–§4.6). ``slab``: the rows of the damage this rank holds
     (:attr:`PositionCycle.slab`); the pits found on each slab are shared so that every rank
     keeps the whole surface. Collective. Returns what it did to each body (:class:`BodyStep`)."""
     done = []

@@ -1,4 +1,4 @@
-"""A study: every work item of a scene, run block by block over groups of ranks (MODEL.md §5).
+"""A study: every work item of a scene, run block by block over groups of ranks (docs/model.md §5).
 
 A work item is one (position × wear coefficient × roughness scale × patch) with a stable id
 (position-major, in that order). Ranks split into groups of ``ranks_per_item`` contiguous ranks
@@ -197,7 +197,7 @@ class Study:
         return self.plan.item_lambda(item)
 
     def item_lambda_gf(self, item: WorkItem) -> float:
-        """ISO/TS 6336-22 Method B style λ_GF = h_c / ½(R_a1 + R_a2) of the item (MODEL.md
+        """ISO/TS 6336-22 Method B style λ_GF = h_c / ½(R_a1 + R_a2) of the item (docs/model.md
         §6), with the R_a of the item's own initial surfaces (its patch and roughness scale)."""
         key = (item.patch, item.scale)
         if key not in self._ra:

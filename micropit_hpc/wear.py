@@ -1,4 +1,4 @@
-"""Local mild wear by Archard's law with a dimensional coefficient (MODEL.md §4.6).
+"""Local mild wear by Archard's law with a dimensional coefficient (docs/model.md §4.6).
 
 Wear depth per load cycle of body i at material point X (Morales-Espejel, Rycerz & Kadiric,
 Wear 398–399 (2018) §2.1; [B11] §2.5):
@@ -12,7 +12,7 @@ periodic linear interpolation along x: unlike a Fourier shift it cannot make a n
 field negative at the edges of the solid-contact patches, and it keeps the sum over the grid,
 so the worn volume is exactly what the load cycle produced.
 
-**Wear integration over a sub-block [choice]** (``life.wear_integration``). MODEL.md §4.6
+**Wear integration over a sub-block [choice]** (``life.wear_integration``). docs/model.md §4.6
 removes ΔN·Δh_i per block (``"explicit"``). On solid-contact spots that update is stiff: the
 wear there relieves the very pressure that drives it. Lowering a contact spot by δ lowers its
 pressure by δ/K₀, K₀ the combined self-compliance of one grid cell (the displacement of a
@@ -66,11 +66,11 @@ class WearRate:
 
     @property
     def rate(self) -> np.ndarray:
-        """Δh_i per load cycle on the current surfaces (MODEL.md §4.6)."""
+        """Δh_i per load cycle on the current surfaces (docs/model.md §4.6)."""
         return self.solid + self.fluid
 
     def depth(self, n: float, integration: str = "relaxed") -> np.ndarray:
-        """Wear depth [m] over ``n`` load cycles: n Δh_i (``explicit``, MODEL.md §4.6), or
+        """Wear depth [m] over ``n`` load cycles: n Δh_i (``explicit``, docs/model.md §4.6), or
         n [Δh_fluid + Δh_solid (1 − e^{−ρn})/(ρn)] (``relaxed``, module docstring)."""
         if integration == "explicit":
             return n * self.rate

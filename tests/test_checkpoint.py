@@ -1,5 +1,5 @@
 """Checkpoint files on one rank: round trip, pruning, and every kind of unusable file skipped
-(HPC.md §3). The parallel contract is in test_checkpoint_mpi.py."""
+(docs/hpc.md §3). The parallel contract is in test_checkpoint_mpi.py."""
 
 from __future__ import annotations
 

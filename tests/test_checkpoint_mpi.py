@@ -1,4 +1,4 @@
-"""The parallel checkpoint contract (HPC.md §3): collective writes where ranks have unequal
+"""The parallel checkpoint contract (docs/hpc.md §3): collective writes where ranks have unequal
 (or no) work, items split over ranks, reads on another layout, and a writer killed mid-file.
 
 Run under ``mpirun -n 2 ... -m pytest --with-mpi -m mpi``. Each verdict is allgathered before

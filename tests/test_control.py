@@ -1,5 +1,5 @@
 """Stopping at a block boundary: signals, the STOP file and the wall-time budget, agreed by
-every rank (HPC.md §3, "Long jobs")."""
+every rank (docs/hpc.md §3, "Long jobs")."""
 
 from __future__ import annotations
 

@@ -36,7 +36,8 @@ def _scene(tmp_path, base="gear_z23", extra=SMALL, drop=(), name="small"):
 
 
 def test_window_kinematics(tmp_path):
-    """t_j = (j+½)t_f/m, x_c from −b to +b, relative slip over the transit 2b|S| (MODEL §4)."""
+    """t_j = (j+½)t_f/m, x_c from −b to +b, relative slip over the transit 2b|S|
+    (docs/model.md §4)."""
     study = contact_study(load_scene(_scene(tmp_path)))
     cyc = PositionCycle(study, 3)
     c = cyc.cond

@@ -1,4 +1,4 @@
-"""Dang Van (MODEL.md §4.3) against closed forms, and the enclosing ball against its optimality
+"""Dang Van (docs/model.md §4.3) against closed forms, and the enclosing ball against its optimality
 conditions."""
 
 import dataclasses
@@ -49,7 +49,7 @@ def test_mesoscopic_shear_is_tresca_of_random_deviators():
 @pytest.mark.parametrize("sa, ta", [(300e6, 200e6), (200e6, 300e6), (400e6, 50e6)])
 def test_closed_form_path_of_desimone(sa, ta):
     """σ_x = σ_a(cos ωt − 1), τ_xy = τ_a sin ωt: τ̂ = ½√(σ_a² cos² + 4τ_a² sin²),
-    σ_H = (σ_a/3)(cos ωt − 1) ([D06] appendix; MODEL.md §4.3)."""
+    σ_H = (σ_a/3)(cos ωt − 1) ([D06] appendix; docs/model.md §4.3)."""
     m = 72
     w = 2 * np.pi * (np.arange(m) + 0.5) / m
     h = np.zeros((m, 6, 1))

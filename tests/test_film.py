@@ -1,4 +1,4 @@
-"""Film-thickness formulas and Λ (MODEL.md §2.4); Table 3's h_c column is in test_gear.py."""
+"""Film-thickness formulas and Λ (docs/model.md §2.4); Table 3's h_c column is in test_gear.py."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Spur gear kinematics and the paper's Tables 3 and 7 (MODEL.md §2.1, §2.2, §2.4, §2.5)."""
+"""Spur gear kinematics and the paper's Tables 3 and 7 (docs/model.md §2.1, §2.2, §2.4, §2.5)."""
 
 from __future__ import annotations
 

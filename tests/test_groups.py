@@ -1,4 +1,4 @@
-"""Work-item groups and the item assignment every rank computes alike (HPC.md §2, level 1)."""
+"""Work-item groups and the item assignment every rank computes alike (docs/hpc.md §2, level 1)."""
 
 from __future__ import annotations
 

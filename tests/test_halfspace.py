@@ -1,4 +1,4 @@
-"""Micro stress field of the half-space (MODEL.md §4.2, Appendix A.1): boundary values,
+"""Micro stress field of the half-space (docs/model.md §4.2, Appendix A.1): boundary values,
 equilibrium, the A.1 trace relation, the printed A.1 formulas mode by mode (incl. Nyquist modes),
 the Boussinesq point-load limit and the Hertz line contact of Appendix A.2."""
 
@@ -76,7 +76,7 @@ def test_api_options_agree():
 # --- the printed A.1 formulas, mode by mode -------------------------------------------------
 
 def a1_printed(al, be, z, nu, P, Tx, Ty):
-    """MODEL.md Appendix A.1 exactly as printed (independent of the library's regrouping)."""
+    """docs/model.md Appendix A.1 exactly as printed (independent of the library's regrouping)."""
     ze = np.hypot(al, be)
     zs = np.where(ze > 0, ze, 1.0)
     E = np.where(ze > 0, np.exp(-ze * z), 0.0)   # mean mode excluded
@@ -194,7 +194,7 @@ def test_equilibrium_to_round_off():
 
 
 def test_trace_relation():
-    """tr σ̂ = 2(1+ν) e^{−ζz}[P̂ − i(αT̂x + βT̂y)/ζ] (MODEL.md A.1 check), mean mode excluded."""
+    """tr σ̂ = 2(1+ν) e^{−ζz}[P̂ − i(αT̂x + βT̂y)/ζ] (docs/model.md A.1 check), mean mode excluded."""
     g = Grid(25, 21, 2.0, 1.5)
     p, qx, qy = random_tractions(g.shape, 5)
     z = np.array([0.0, 0.05, 0.4])
@@ -277,7 +277,7 @@ def test_boussinesq_point_load_limit():
         assert err < 1e-3, (zk, err)
 
 
-# --- Hertz line contact (MODEL.md A.2), the headline check ----------------------------------
+# --- Hertz line contact (docs/model.md A.2), the headline check ----------------------------------
 
 def image_tail(x, z, M, L, w, Q, nu):
     """Σ over |n| > M of the images' far field (Flamant line loads w normal, Q tangential,

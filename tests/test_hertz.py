@@ -1,4 +1,4 @@
-"""Hertz line and elliptical contact against closed forms (MODEL.md §2.2, §2.3)."""
+"""Hertz line and elliptical contact against closed forms (docs/model.md §2.2, §2.3)."""
 
 from __future__ import annotations
 

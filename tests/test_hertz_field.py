@@ -1,4 +1,4 @@
-"""Macro stress fields of the Hertz contact (MODEL.md §4.2, Appendix A.2): the line contact in
+"""Macro stress fields of the Hertz contact (docs/model.md §4.2, Appendix A.2): the line contact in
 closed form and the elliptical contact computed by the A.1 kernels on a padded window."""
 
 from __future__ import annotations
@@ -30,9 +30,9 @@ def von_mises(s):
 # --- line contact -------------------------------------------------------------------------
 
 def test_frictionless_maxima():
-    """MODEL.md A.2 checks: max von Mises 0.557 p0 at z = 0.70b (ν = 0.3), max (σ_x − σ_z)/2 =
+    """docs/model.md A.2 checks: max von Mises 0.557 p0 at z = 0.70b (ν = 0.3), max (σ_x − σ_z)/2 =
     0.300 p0 at z = 0.786b, both on the axis x = 0 (global search over x too). The von Mises
-    maximum is 0.55752 p0 (MODEL.md's 0.557 is it cut to three digits; Johnson's yield load
+    maximum is 0.55752 p0 (docs/model.md's 0.557 is it cut to three digits; Johnson's yield load
     p0 = 1.79 Y, §6.2, is 1/0.5575 = 1.794 rounded), so it is checked as 0.5575 ± 1e-4."""
     X, Z = np.meshgrid(np.linspace(-1.5, 1.5, 301) * B, np.linspace(0, 2, 2001) * B,
                        indexing="ij")

@@ -1,5 +1,5 @@
 """The life loop at one contact point: Miner, wear, pits, moving damage columns, adaptive
-blocks (MODEL.md §4.4–§5)."""
+blocks (docs/model.md §4.4–§5)."""
 
 import dataclasses
 import itertools
@@ -207,7 +207,7 @@ def test_zero_sliding_gives_no_micropits(tiny):
 
 
 def test_rainflow_steps_keep_the_slip_per_step_within_a_quarter_of_the_peak_spacing(tiny):
-    """MODEL.md §4.4: relative slip per step 2b|S|/m ≤ λ_c/4, with the fewest such steps, and
+    """docs/model.md §4.4: relative slip per step 2b|S|/m ≤ λ_c/4, with the fewest such steps, and
     never fewer than asked; no refinement without sliding or without roughness."""
     _, study = tiny
     c = study.conditions[1]

@@ -55,7 +55,7 @@ def _v00_contact():
 
 
 def test_v00_pure_rolling_calibration():
-    """[choice] MODEL §4.1 step 2: with the calibrated prefactor the model reproduces
+    """[choice] docs/model.md §4.1 step 2: with the calibrated prefactor the model reproduces
     A_d/A_i = 0.739 of [V00] (M = 1007.6, L = 12.05, λ/a = 0.25, pure rolling), computed from
     physical inputs through Moes' M, L, the Hertz radius and the mode's wavelength; the
     printed prefactor 0.8 would give 0.831."""

@@ -1,4 +1,4 @@
-"""The trend checks of MODEL.md §7 on the MPR rig (postprocess/paper_mpr.py, trends 1 and 7):
+"""The trend checks of docs/model.md §7 on the MPR rig (postprocess/paper_mpr.py, trends 1 and 7):
 the paper's own numbers pass them, numbers that break a trend do not, only the roller (body 1)
 and the last block count, and the side-by-side tables are written."""
 

@@ -1,4 +1,4 @@
-"""Rainflow counting and damage per load cycle (micropit_hpc.fatigue.rainflow, MODEL.md §4.4)."""
+"""Rainflow counting and damage per load cycle (fatigue/rainflow.py, docs/model.md §4.4)."""
 
 from __future__ import annotations
 
@@ -44,7 +44,8 @@ ASTM_PERIODIC = [
 
 
 def sn_damage(tau: np.ndarray) -> np.ndarray:
-    """An S-N-like damage 1/N(τ): rises steeply with τ, zero for τ ≤ 0 (MODEL.md §4.4 shape)."""
+    """An S-N-like damage 1/N(τ): rises steeply with τ, zero for τ ≤ 0 (docs/model.md §4.4
+    shape)."""
     out = np.zeros_like(tau)
     pos = tau > 0
     out[pos] = np.exp(4.0 * tau[pos] - 20.0)

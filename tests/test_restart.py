@@ -1,4 +1,4 @@
-"""micropit run: checkpoints, restart, clean stops (HPC.md §3; issue 5 items 4, 5 and 8).
+"""micropit run: checkpoints, restart, clean stops (docs/hpc.md §3; issue 5 items 4, 5 and 8).
 
 A run stopped after k blocks (STOP file, wall-time budget, SIGUSR1, SIGKILL) and restarted must
 give the same summary.csv and results.h5 as the straight run, bit for bit.

@@ -1,4 +1,4 @@
-"""The parallel run contract under ``mpirun -n 2`` (issue 5 item 8, HPC.md §2–§4).
+"""The parallel run contract under ``mpirun -n 2`` (issue 5 item 8, docs/hpc.md §2–§4).
 
 * 2 ranks (groups of 1) stopped after a block and restarted on 2 ranks, and on 1 rank, equal
   the straight 1-rank run bit for bit;
@@ -129,7 +129,7 @@ def test_a_window_split_over_two_ranks_equals_one_rank(shared_dir):
 @pytest.mark.timeout(300)
 def test_a_rank_without_items_checkpoints_and_restarts(shared_dir):
     """One work item on two groups: rank 1 computes nothing and writes nothing, yet takes part
-    in every collective write and read (HPC.md §3)."""
+    in every collective write and read (docs/hpc.md §3)."""
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD

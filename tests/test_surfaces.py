@@ -1,4 +1,4 @@
-"""Topography processing, spectral moments and synthetic surfaces (MODEL.md §3, §4.4)."""
+"""Topography processing, spectral moments and synthetic surfaces (docs/model.md §3, §4.4)."""
 
 from __future__ import annotations
 
@@ -216,7 +216,7 @@ def test_scaling_to_rq_keeps_the_mean():
         Topography(h, UM, UM).scaled_to_rq(-1.0)
 
 
-# ---- spectral moments (MODEL.md §4.4) -------------------------------------------------------
+# ---- spectral moments (docs/model.md §4.4) -------------------------------------------------------
 @pytest.mark.parametrize("nx,periods", [(64, 5), (63, 4), (128, 31)])
 def test_peak_spacing_of_a_cosine_is_its_wavelength(nx, periods):
     x, y = coords(nx, 6, dx=0.5 * UM)
@@ -287,7 +287,7 @@ def test_moments_of_a_synthetic_gaussian_spectrum():
     assert m[2] == pytest.approx(12 * A * A * UM**2 / b**4, rel=0.05)
 
 
-# ---- white noise and per-row streams (HPC.md §2) --------------------------------------------
+# ---- white noise and per-row streams (docs/hpc.md §2) --------------------------------------------
 def test_each_row_is_its_own_documented_stream():
     g = grid(9, 7)
     full = white_noise(g, 42, spawn_key=(3,))

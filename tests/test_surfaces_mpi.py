@@ -1,4 +1,4 @@
-"""Synthetic surfaces are the same on every rank and for any slab split (HPC.md §2, §4).
+"""Synthetic surfaces are the same on every rank and for any slab split (docs/hpc.md §2, §4).
 
 Run under ``mpirun -n 2 ... -m pytest --with-mpi -m mpi``. Each verdict is allgathered before
 it is asserted, so a failure on one rank fails every rank instead of hanging the other.

@@ -1,4 +1,4 @@
-"""The trend checks of MODEL.md §7 (trends 2–6): the paper's own tables pass them, and tables
+"""The trend checks of docs/model.md §7 (trends 2–6): the paper's own tables pass them, and tables
 that break each trend in the way a model could fail it do not."""
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""The S–N (Wöhler) line of the Dang Van stress and the damage per cycle (MODEL.md §4.4).
+"""The S–N (Wöhler) line of the Dang Van stress and the damage per cycle (docs/model.md §4.4).
 
 σ_f = A ln N + B with the equivalent normal stress σ_f = √3 τ (the paper's Wöhler curve of the
 gear steel, A = −40 MPa, B = 1600 MPa; the paper prints A = 40 MPa as a "slope", but it must be

@@ -1,9 +1,9 @@
 """Dry elastic–perfectly-plastic contact of two rough surfaces on a periodic window, by FFT.
 
-The problem (MODEL.md §4.1 step 3, level ``dry``): find the pressure p(x, y) with mean P and
+The problem (docs/model.md §4.1 step 3, level ``dry``): find the pressure p(x, y) with mean P and
 0 ≤ p ≤ p_lim, and the rigid approach δ, such that the deformed gap
 
-    g = g0 + u(p) − δ,   û(k) = 4 p̂(k) / (E' |k|)   (k ≠ 0; both bodies, MODEL.md §4.1 step 1)
+    g = g0 + u(p) − δ,   û(k) = 4 p̂(k) / (E' |k|)   (k ≠ 0; both bodies, docs/model.md §4.1 step 1)
 
 satisfies g ≥ 0 where p = 0, g = 0 where 0 < p < p_lim, and g ≤ 0 where p = p_lim (the material
 has yielded and the surfaces interpenetrate by the plastically flattened height).
@@ -56,7 +56,7 @@ class DryContact:
 
 class ElasticHalfSpaces:
     """The combined surface compliance of two elastic half-spaces on a periodic grid:
-    û = (4/(E' κ)) p̂ (MODEL.md §4.1 step 1; Johnson, Contact Mechanics §3.? for one body:
+    û = (4/(E' κ)) p̂ (docs/model.md §4.1 step 1; Johnson, Contact Mechanics §3.? for one body:
     2(1−ν²)/(E κ)). The mean mode is left out: a uniform pressure only moves the bodies
     together, which the rigid approach accounts for."""
 
@@ -142,7 +142,7 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
 
         ε = rms(g − ḡ over the elastic contact points) / rms(g0 − mean g0) ≤ tol.
 
-    Cap 0 ≤ p ≤ p_lim (MODEL.md §4.1 step 3; p_lim = 0.6 H by default there): the plastic
+    Cap 0 ≤ p ≤ p_lim (docs/model.md §4.1 step 3; p_lim = 0.6 H by default there): the plastic
     set is found by the fixed-point iteration of Jacq et al. (J. Tribol. 124 (2002) 653–667):
     points at p_lim are held at the cap, the elastic problem is solved on the rest, points whose
     elastic pressure exceeds the cap join the set and points of the set whose gap opens leave

@@ -1,4 +1,4 @@
-"""The fast mixed-lubrication model of [M10]/[B11] at one time step (MODEL.md §4.1, `mixed`).
+"""The fast mixed-lubrication model of [M10]/[B11] at one time step (docs/model.md §4.1, `mixed`).
 
 Per Fourier mode k of the rough clearance of each surface i (r_i = −ẑ_i, its share of the
 undeformed gap h̄ − z1 − z2), with the window travelling at ū through the contact:
@@ -29,7 +29,7 @@ Choices we made where the published model is silent (each a documented parameter
   not tend to the dry solution. ``"full"`` keeps the unscaled deformation.
 * **Combination** (``combine = "contact"``): the dry contact acts on the lubricated clearance,
   so the final clearance is the dry solution's gap and the pressure is fluid + contact.
-  ``"max_amplitude"`` is the literal rule of MODEL.md step 4 (keep, per mode, the larger
+  ``"max_amplitude"`` is the literal rule of docs/model.md step 4 (keep, per mode, the larger
   clearance amplitude of the dry and the lubricated solutions); it undoes the flattening of
   the contact spots and is offered for comparison only.
 """
@@ -65,7 +65,7 @@ class MixedSolution:
 
 
 def solve_dispersion(a, c, e, ky, eta_x, eta_y, steps: int = 8, newton: int = 8):
-    """Wavenumber ψ of the complementary wave, per mode (MODEL.md §4.1 step 2):
+    """Wavenumber ψ of the complementary wave, per mode (docs/model.md §4.1 step 2):
 
         ψ = k_x u_i/ū + i E' h̄³ Ω (ψ²/η_x + k_y²/η_y) / (48 ū (1 + E' h̄ Ω/(4B))),
         Ω² = ψ² + k_y²  (η_x multiplies ψ²; two published versions have a typo),
@@ -98,7 +98,7 @@ def solve_dispersion(a, c, e, ky, eta_x, eta_y, steps: int = 8, newton: int = 8)
 
 
 class MixedLubrication:
-    """The mixed model on one window for one contact (MODEL.md §4.1).
+    """The mixed model on one window for one contact (docs/model.md §4.1).
 
     ``geometry``, ``load``, ``R``, ``b`` describe the macro contact (line: load per unit
     length; elliptical: total load, R = R_x, b the semi-axis along rolling); ``h_mean`` is the
