@@ -97,12 +97,10 @@ class BodyStep:
 
 
 def initial_state(cycle: PositionCycle) -> LifeState:
-    """Fresh bodies on the cycle's surfaces: no damage, no wear, no pits. The damage holds
-    this rank's slab rows (:attr:`PositionCycle.slab`), the 2-D fields the whole window."""
-    g = cycle.grid
-    bodies = tuple(BodyState(heights=s.heights.copy(), damage=np.zeros(cycle.slab.local_shape),
-                             pitted=np.zeros(g.shape, bool), wear=np.zeros(g.shape),
-                             pit_depth=np.zeros(g.shape), rq0=s.rq)
+    """Fresh bodies on the cycle's surfaces (:meth:`~micropit_hpc.state.BodyState.fresh`): no
+    damage, no wear, no pits. Layered fields hold this rank's slab rows
+    (:attr:`PositionCycle.slab`), the 2-D fields the whole window."""
+    bodies = tuple(BodyState.fresh(s.heights, cycle.slab.local_shape, s.rq)
                    for s in cycle.surfaces)
     return LifeState(bodies=bodies)
 
