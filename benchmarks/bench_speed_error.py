@@ -39,11 +39,11 @@ from pathlib import Path
 
 from micropit_hpc import source_commit
 from micropit_hpc.conditions import contact_study
-from micropit_hpc.cycle import body_surface
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.plan import WorkItem, reference_half_width, window_grid
 from micropit_hpc.scene import scene_from_dict
 from micropit_hpc.study import ItemRun
+from micropit_hpc.surfaces.bodies import body_surface
 
 ROOT = Path(__file__).resolve().parent.parent
 REF_N = 256

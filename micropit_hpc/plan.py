@@ -27,6 +27,7 @@ from micropit_hpc.mechanics.halfspace import depth_layers
 from micropit_hpc.regime import window_problems
 from micropit_hpc.scene import Scene, check_mixed_inputs
 from micropit_hpc.spectral import Grid
+from micropit_hpc.surfaces.bodies import body_surface
 
 __all__ = ["LEVELS", "MAX_BLOCKS", "Plan", "Window", "WorkItem", "block_cycles",
            "check_life_kinematics", "choose_level", "life_blocks", "make_plan",
@@ -200,7 +201,6 @@ def check_surfaces(scene: Scene, grid: Grid) -> None:
     """Read every measured map the scene names, as a run would: a missing, unreadable or
     unusable file (its R_q, its size against the window) is refused here, not at the first
     block. Synthetic surfaces cannot fail and are not made here."""
-    from micropit_hpc.cycle import body_surface
     from micropit_hpc.estimate import available_memory, npy_too_large
 
     problem = npy_too_large(scene, available_memory())

@@ -18,7 +18,7 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from micropit_hpc.conditions import ContactStudy, contact_study
-from micropit_hpc.cycle import PositionCycle, body_surface, rainflow_steps
+from micropit_hpc.cycle import PositionCycle, rainflow_steps
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.film import iso_lambda_gf
 from micropit_hpc.life import BlockRecord, LifeState, initial_state, run_block
@@ -34,6 +34,7 @@ from micropit_hpc.regime import block_flags
 from micropit_hpc.scene import Scene
 from micropit_hpc.state import BODY_FIELDS
 from micropit_hpc.surfaces import Topography
+from micropit_hpc.surfaces.bodies import body_surface
 
 __all__ = ["SUMMARY_COLUMNS", "ItemRun", "Study", "summary_rows"]
 

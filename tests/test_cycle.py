@@ -151,9 +151,9 @@ def test_reference_width_of_a_disc_rig():
 def test_measured_surface_from_a_scene(tmp_path):
     """kind = "file": read, detrended, periodised, resampled to the window; a missing file and
     an R_q that disagrees with the body's are clear errors naming the key."""
-    from micropit_hpc.cycle import body_surface
     from micropit_hpc.spectral import Grid
     from micropit_hpc.surfaces import gaussian_surface
+    from micropit_hpc.surfaces.bodies import body_surface
 
     g = Grid(64, 64, 8e-4, 8e-4)
     z = gaussian_surface(g, 2.892e-6, 30e-6, 300e-6, seed=5).heights
@@ -181,9 +181,9 @@ def test_measured_surface_from_a_scene(tmp_path):
 def test_every_surface_kind_and_contact_level_has_its_maker():
     """The tables that choose a body's surface maker and a step's contact solver cover every
     surface kind a scene may name and every level a position may get."""
-    from micropit_hpc.cycle import SURFACE_MAKERS
     from micropit_hpc.plan import LEVELS
     from micropit_hpc.scene import SURFACE_KINDS
+    from micropit_hpc.surfaces.bodies import SURFACE_MAKERS
 
     assert set(SURFACE_MAKERS) == set(SURFACE_KINDS)
     assert set(PositionCycle._CONTACT) == set(LEVELS)

@@ -25,7 +25,7 @@ from test_run import _write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.conditions import contact_study
-from micropit_hpc.cycle import PositionCycle, body_surface
+from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.errors import MicropitError, SceneError
 from micropit_hpc.life import BlockRecord, initial_state, run_block
 from micropit_hpc.lubrication.dry import ContactError
@@ -33,6 +33,7 @@ from micropit_hpc.plan import WorkItem, reference_half_width, window_grid
 from micropit_hpc.scene import LifeSpec, scene_from_dict
 from micropit_hpc.study import ItemRun
 from micropit_hpc.surfaces import Topography
+from micropit_hpc.surfaces.bodies import body_surface
 
 #: Λ of tiny_doc(): h_c = 0.037 µm over the composite R_q of 0.16 and 0.21 µm.
 TINY_LAMBDA = 0.037 / math.hypot(0.16, 0.21)
