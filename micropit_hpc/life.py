@@ -19,19 +19,16 @@ halved while the damage rise or the new pits are too many, but never below ΔN/`
 The pit limit resolves the cascade: a pit unloads its columns onto its neighbours, whose
 damage rate then jumps, so the pits grow one generation per sub-block. The damage limit leaves
 out the points that fail within the sub-block, so without the pit limit a block without wear
-took 1–2 sub-blocks and A_p depended on their length (64², Table 9 β_x = 30 µm, Λ = 0.176,
-k_lub = 0: 5.6 % after 1 M with the default split then, 19.8 % in 100 k-cycle steps;
-docs/life.md).
+took 1–2 sub-blocks and A_p depended on their length (measured in docs/life.md, "Resolving
+the running-in").
 
 The shape change of a sub-block is its wear depth less the mean depth, over the intact columns
 (:func:`shape_change`). A uniform removal moves the surface and its damage columns down
 together and changes neither the contact nor the stresses, so it needs no split; the part of
 the wear that differs from place to place is what runs the surface in, and its rate changes as
-it does. Measured on the Table 9 scene (β_x = 30 µm, Λ = 0.176, k_lub = 1e-11 s, 64²): with the
-split stopped at 4 sub-blocks per block the roller's A_p after 1 M cycles is 5.4 %, with 16 it
-is 3.8 %, with the limit honoured (25 sub-blocks) 2.9 %, and with half the limit 3.0 %; the
-coarse steps also leave a texture that shortens λ_c and runs A_p away after a few M cycles
-(docs/life.md, "Resolving the running-in").
+it does. Stopping the split early over-predicts A_p, and the coarse steps leave a texture that
+shortens λ_c and runs A_p away after a few M cycles (docs/life.md, "Resolving the running-in",
+has the measurements against the number of sub-blocks).
 
 **Time integration [decision]** (``integration``): ``"adaptive"`` (default) is the split
 above; ``"paper"`` is the paper's own scheme (Morales-Espejel, Rycerz & Kadiric 2018 §2.1):

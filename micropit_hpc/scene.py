@@ -129,7 +129,7 @@ class GearTable:
         "within this of the pitch point C are evaluated at C exactly (S = 0). The paper's "
         "Table 3 prints roll angles to 0.01° and calls its position 6 (27.77°) the pitch "
         "point, where the exact C is 27.774°: S = −0.0003 there, and since the asperity "
-        "stresses exceed the S–N line's one-cycle strength that alone pits 11 % of the "
+        "stresses exceed the S–N line's one-cycle strength that alone pits part of the "
         "flank (docs/validation/findings.md). Default 0: positions as given.", "deg", DEG,
         default=0.0, lo=0, hi=1)
     material_factor_ww: float = setting(
@@ -615,7 +615,7 @@ class LifeSpec:
     max_splits: int = setting(
         "max_splits", "int", "At most this many sub-blocks per block (the "
         "smallest sub-block is ΔN/max_splits). With 4 the running-in of Table 9 at k_lub = 1e-11 s "
-        "is not resolved (A_p 5.4 % after 1 M cycles against 2.9 % converged, docs/life.md).",
+        "is not resolved (docs/life.md, \"Resolving the running-in\").",
         default=64, lo=1, hi=100000)
     pit_contact: str = setting(
         "pit_contact", "str", "How a micropit enters the next contact "
