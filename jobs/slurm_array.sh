@@ -34,6 +34,7 @@
 #
 # Knobs (environment variables, given to sbatch with --export=ALL,VAR=value or exported before):
 #   MODE=scenes|positions   what the array index selects (default scenes)
+#   TASK=K                  use K instead of the array index (a job that is not an array)
 #   SCENE_LIST=FILE         scenes, one per line (instead of script arguments)
 #   OUT_ROOT=DIR            results go to OUT_ROOT/<scene name>[/position_<k>] (default runs)
 #   LAUNCHER=mpirun|srun    how ranks are started (default mpirun: the MPI library of mpi4py
@@ -74,7 +75,7 @@ py=${MICROPIT_PYTHON:-$root/.venv/bin/python}
 [[ -x "$py" ]] || die "no interpreter $py: run 'bash scripts/setup.sh' first or set MICROPIT_PYTHON"
 
 # ---- which scene / position this array task runs ------------------------------------------------
-task=${SLURM_ARRAY_TASK_ID:-1}
+task=${TASK:-${SLURM_ARRAY_TASK_ID:-1}}
 if [[ -n "${SCENE_LIST:-}" ]]; then
     mapfile -t scenes < <(grep -v '^[[:space:]]*\(#\|$\)' "$SCENE_LIST")
 else

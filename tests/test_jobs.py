@@ -146,3 +146,19 @@ def test_the_budget_reserves_the_longest_measured_block_plus_a_checkpoint(tmp_pa
     assert len(asked) == 2            # after blocks 1 and 2, not after the last
     assert asked[0] > NEXT_BLOCK_MARGIN * walls[0]
     assert asked[1] >= asked[0] * 0.5 and asked[1] > NEXT_BLOCK_MARGIN * max(walls[:2])
+
+
+@pytest.mark.timeout(300)
+def test_the_big_window_script_splits_one_position_over_every_rank(tmp_path):
+    """jobs/slurm_big_window.sh runs one position with --ranks-per-item = all ranks, through
+    jobs/slurm_array.sh in positions mode (outside Slurm: NP ranks, no requeue)."""
+    from micropit_hpc.io.results import load_results
+
+    path = scene(tmp_path, blocks=1)
+    env = job_env(tmp_path, OUT_ROOT=str(tmp_path / "runs"), POSITION="2")
+    p = subprocess.run(["bash", "jobs/slurm_big_window.sh", str(path)], env=env, cwd=ROOT,
+                       capture_output=True, text=True, timeout=240)
+    assert p.returncode == 0, p.stdout + p.stderr
+    res = load_results(tmp_path / "runs" / "jobtiny" / "position_2")
+    assert res.attrs["ranks"] == 2 and res.attrs["ranks_per_item"] == 2
+    assert list(res.items["position"]) == [2]
