@@ -375,20 +375,63 @@ def dang_van_points(flat, alpha, tol, max_iter, keep_series, tau, rad, series, i
             j = j0 + q
             iters[j] = it_done
             rad[j] = math.sqrt(R2)
-            hmax = -np.inf
-            for t in range(m):
-                sh = _mesoscopic_shear(vb[q, 0, t] - c[0], vb[q, 1, t] - c[1],
-                                       vb[q, 2, t] - c[2], vb[q, 3, t] - c[3],
-                                       vb[q, 4, t] - c[4])
-                yt = sh + alpha * trace[q, t] / 3.0
-                yb[q, t] = yt
-                if hmax == hmax and not yt <= hmax:      # as np.max: a NaN stays
-                    hmax = yt
+            if keep_series:
+                hmax = -np.inf
+                for t in range(m):
+                    yt = _y(vb, q, t, c, trace, alpha)
+                    yb[q, t] = yt
+                    if hmax == hmax and not yt <= hmax:      # as np.max: a NaN stays
+                        hmax = yt
+            else:
+                hmax = _max_y(vb, q, c, trace, alpha, yb[q])
             tau[j] = hmax
         if keep_series:
             for t in range(m):
                 for q in range(nb):
                     series[t, j0 + q] = yb[q, t]
+
+
+@njit(cache=True)
+def _y(vb, q, t, c, trace, alpha):
+    """τ̂(t) + α σ_H(t) of point q of the block (dangvan.dang_van's y)."""
+    sh = _mesoscopic_shear(vb[q, 0, t] - c[0], vb[q, 1, t] - c[1], vb[q, 2, t] - c[2],
+                           vb[q, 3, t] - c[3], vb[q, 4, t] - c[4])
+    return sh + alpha * trace[q, t] / 3.0
+
+
+@njit(cache=True)
+def _max_y(vb, q, c, trace, alpha, ub):
+    """max_t y(t), evaluating y only where it can be the largest: τ̂ ≤ √J2 (the Tresca shear of
+    a deviator is at most √J2), so ub(t) = √J2·(1 + 1e-12) + α σ_H ≥ y(t), and the steps are
+    taken in falling ub until the next ub is below the largest y found. The same value as
+    the max over all steps; ``ub`` is work space (m,)."""
+    m = ub.shape[0]
+    for t in range(m):
+        j2 = 0.0
+        for a in range(5):
+            diff = vb[q, a, t] - c[a]
+            j2 += diff * diff
+        ub[t] = math.sqrt(0.5 * j2) * (1.0 + 1e-12) + alpha * trace[q, t] / 3.0
+        if not ub[t] == ub[t]:          # NaN: every step, as np.max would see them
+            best = -np.inf
+            for u in range(m):
+                yt = _y(vb, q, u, c, trace, alpha)
+                if best == best and not yt <= best:
+                    best = yt
+            return best
+    best = -np.inf
+    for _ in range(m):
+        k = 0
+        for t in range(1, m):
+            if ub[t] > ub[k]:
+                k = t
+        if ub[k] < best or ub[k] == -np.inf:
+            break
+        ub[k] = -np.inf
+        yt = _y(vb, q, k, c, trace, alpha)
+        if not yt <= best:
+            best = yt
+    return best
 
 
 @njit(cache=True)
