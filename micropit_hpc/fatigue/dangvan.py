@@ -52,7 +52,7 @@ _R2, _R6 = math.sqrt(2.0), math.sqrt(6.0)
 
 #: :func:`mesoscopic_shear` takes the eigenvalues where |cos 3θ| > 1 − LODE_EDGE: there the
 #: Lode-angle formula would lose more than about 1e-12 of the shear (its error is roughly
-#: 1e-16/√(1 − |cos 3θ|) relative).
+#: 1e-16/√(1 − |cos 3θ|) relative). A constant: the compiled kernel reads it when it is compiled.
 LODE_EDGE = 1e-6
 
 #: The kernel :func:`dang_van` uses when none is given: "auto" (compiled where Numba can be
