@@ -14,11 +14,15 @@ say() { printf '[setup] %s\n' "$*" >&2; }
 die() { printf '[setup] error: %s\n' "$*" >&2; exit 1; }
 
 # Debian 12's consistent MPI stack (docs/install.md): Open MPI 4.1, mpi4py 3.1, parallel HDF5 h5py,
-# PETSc 3.18, pyFFTW, mpi4py-fft, NumPy 1.24, SciPy 1.10, and the test plugins.
+# PETSc 3.18, pyFFTW, mpi4py-fft, NumPy 1.24, SciPy 1.10, and the test plugins; Numba 0.56 (built
+# for Debian's NumPy) for the compiled Dang Van kernel.
 deb_pkgs=(python3-venv python3-pip python3-setuptools python3-wheel openmpi-bin
           python3-numpy python3-scipy python3-matplotlib python3-mpi4py python3-h5py-mpi
           python3-petsc4py python3-pyfftw python3-mpi4py-fft
-          python3-pytest python3-pytest-mpi python3-pytest-timeout)
+          python3-pytest python3-pytest-mpi python3-pytest-timeout python3-numba)
+# Of those, the ones the code runs without (more slowly): where they are missing and cannot be
+# installed, setup says so and goes on (docs/install.md, "Numba").
+deb_optional=(python3-numba)
 ruff_pin="ruff==0.8.6"
 
 if [[ -n "${MICROPIT_PYTHON:-}" ]]; then
@@ -29,18 +33,28 @@ else
     command -v dpkg-query >/dev/null || die "no dpkg-query: this is not a Debian system; set MICROPIT_PYTHON to an environment that has mpi4py, h5py (mpio), petsc4py, pyfftw (docs/install.md)"
     mapfile -t missing < <(dpkg-query -W -f='${db:Status-Abbrev} ${Package}\n' "${deb_pkgs[@]}" 2>/dev/null \
                              | awk '$1 == "ii" {print $2}' | sort | comm -13 - <(printf '%s\n' "${deb_pkgs[@]}" | sort))
+    required=() optional=()
+    for p in "${missing[@]}"; do
+        if [[ " ${deb_optional[*]} " == *" $p "* ]]; then optional+=("$p"); else required+=("$p"); fi
+    done
     if ((${#missing[@]})); then
         if [[ "${MICROPIT_NO_APT:-0}" == 1 || $(id -u) -ne 0 ]]; then
-            die "missing Debian packages: ${missing[*]} -- install them as root (apt-get install ${missing[*]}) or set MICROPIT_PYTHON (docs/install.md)"
+            ((${#required[@]} == 0)) || die "missing Debian packages: ${required[*]} -- install them as root (apt-get install ${missing[*]}) or set MICROPIT_PYTHON (docs/install.md)"
+            say "optional Debian packages missing: ${optional[*]} -- the code runs without them, more slowly (apt-get install ${optional[*]}; docs/install.md)"
+        else
+            say "installing ${#missing[@]} Debian packages: ${missing[*]}"
+            export DEBIAN_FRONTEND=noninteractive
+            log=$(mktemp)
+            if ! { apt-get update -qq && { ((${#required[@]} == 0)) || apt-get install -y -qq --no-install-recommends "${required[@]}"; }; } >"$log" 2>&1; then
+                tail -n 30 "$log" >&2
+                die "apt-get failed (full log: $log)"
+            fi
+            if ((${#optional[@]})) && ! apt-get install -y -qq --no-install-recommends "${optional[@]}" >>"$log" 2>&1; then
+                say "could not install the optional ${optional[*]} (log: $log); the code runs without them, more slowly"
+            else
+                rm -f "$log"
+            fi
         fi
-        say "installing ${#missing[@]} Debian packages: ${missing[*]}"
-        export DEBIAN_FRONTEND=noninteractive
-        log=$(mktemp)
-        if ! { apt-get update -qq && apt-get install -y -qq --no-install-recommends "${missing[@]}"; } >"$log" 2>&1; then
-            tail -n 30 "$log" >&2
-            die "apt-get failed (full log: $log)"
-        fi
-        rm -f "$log"
     fi
     if [[ ! -x .venv/bin/python ]]; then
         say "creating .venv (system site packages visible)"

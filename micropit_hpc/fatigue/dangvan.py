@@ -26,22 +26,59 @@ distance to the farthest point is 1-strongly convex in c, the centre is then wit
 the exact one. All points advance together in NumPy arrays with the point axis last; a point's
 result depends only on its own path (converged points are compacted away), so it is the same
 bitwise in any batch or decomposition.
+
+Two implementations of :func:`dang_van` (``kernel=``): the NumPy path above, which is the
+reference, and a compiled one (:mod:`._dangvan_numba`, Numba, one point at a time in machine
+code: the same algorithm, the same results to round-off, several times faster). ``"auto"``
+(:data:`DEFAULT_KERNEL`) takes the compiled one where Numba can be imported and the NumPy path
+otherwise; Numba is optional (docs/install.md, docs/performance.md "Compiled Dang Van").
 """
 
 from __future__ import annotations
 
 import math
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ALPHA_DV", "DangVan", "dang_van", "deviator_vectors", "enclosing_ball",
-           "mesoscopic_shear"]
+__all__ = ["ALPHA_DV", "DEFAULT_KERNEL", "DangVan", "dang_van", "deviator_vectors",
+           "enclosing_ball", "mesoscopic_shear", "numba_kernel"]
 
 #: α_DV = 3(1/√3 − ½): the Dang Van hydrostatic sensitivity (docs/model.md §4.3).
 ALPHA_DV = 3.0 * (1.0 / math.sqrt(3.0) - 0.5)
 
 _R2, _R6 = math.sqrt(2.0), math.sqrt(6.0)
+
+#: :func:`mesoscopic_shear` takes the eigenvalues where |cos 3θ| > 1 − LODE_EDGE: there the
+#: Lode-angle formula would lose more than about 1e-12 of the shear (its error is roughly
+#: 1e-16/√(1 − |cos 3θ|) relative). A constant: the compiled kernel reads it when it is compiled.
+LODE_EDGE = 1e-6
+
+#: The kernel :func:`dang_van` uses when none is given: "auto" (compiled where Numba can be
+#: imported, else NumPy), "numba" or "numpy". A module-level switch for whole runs.
+DEFAULT_KERNEL = "auto"
+
+_KERNELS = ("auto", "numba", "numpy")
+_numba_module = None            # the imported kernel module, False once the import failed
+
+
+def numba_kernel():
+    """The compiled kernel (``_dangvan_numba.dang_van_points``), or None where Numba cannot be
+    imported. The outcome of the first import is kept."""
+    global _numba_module
+    if _numba_module is None:
+        try:
+            from micropit_hpc.fatigue import _dangvan_numba
+        except ModuleNotFoundError:             # no Numba: the NumPy path, silently
+            _numba_module = False
+        except Exception as err:                # a broken Numba, no writable cache, ...
+            warnings.warn(f"dang_van: the compiled kernel is not available ({err!r}); "
+                          "using the NumPy path", RuntimeWarning, stacklevel=3)
+            _numba_module = False
+        else:
+            _numba_module = _dangvan_numba
+    return _numba_module.dang_van_points if _numba_module else None
 
 
 def deviator_vectors(sigma: np.ndarray) -> np.ndarray:
@@ -245,6 +282,11 @@ def mesoscopic_shear(v: np.ndarray) -> np.ndarray:
     With J2 = ½ ŝ:ŝ = ½|v|², J3 = det ŝ and cos 3θ = (3√3/2) J3/J2^{3/2} (θ ∈ [0, π/3], the
     Lode angle), the principal values are 2√(J2/3) cos(θ − 2πk/3), so
     (ŝ_I − ŝ_III)/2 = √J2 sin(θ + π/3).
+
+    Near θ = 0 or π/3 (two principal values nearly equal, |cos 3θ| > 1 − :data:`LODE_EDGE`)
+    the angle from cos 3θ keeps only about half the digits (1 − cos 3θ cancels), so there
+    the shear is taken from the eigenvalues themselves (``eigvalsh``): absolute error about
+    ε|ŝ| everywhere.
     """
     a, b = v[0] / _R2, v[1] / _R6
     sxx, syy, szz = a + b, b - a, -2.0 * b
@@ -255,7 +297,19 @@ def mesoscopic_shear(v: np.ndarray) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         cos3 = np.where(j2 > 0.0, 1.5 * math.sqrt(3.0) * j3 / (j2 * np.sqrt(j2)), 0.0)
     theta = np.arccos(np.clip(cos3, -1.0, 1.0)) / 3.0
-    return np.sqrt(j2) * np.sin(theta + math.pi / 3.0)
+    tau = np.asarray(np.sqrt(j2) * np.sin(theta + math.pi / 3.0))
+    near = np.abs(cos3) > 1.0 - LODE_EDGE
+    if near.any():
+        shape = tau.shape
+        tau, near = tau.reshape(-1).copy(), near.reshape(-1)
+        t = [np.broadcast_to(x, shape).reshape(-1)[near]
+             for x in (sxx, sxy, sxz, syy, syz, szz)]
+        mat = np.stack([np.stack(t[0:3]), np.stack([t[1], t[3], t[4]]),
+                        np.stack([t[2], t[4], t[5]])]).transpose(2, 0, 1)     # (k, 3, 3)
+        ev = np.linalg.eigvalsh(mat)
+        tau[near] = 0.5 * (ev[:, 2] - ev[:, 0])
+        tau = tau.reshape(shape)
+    return tau
 
 
 @dataclass(frozen=True)
@@ -274,19 +328,33 @@ class DangVan:
 
 
 def dang_van(history: np.ndarray, alpha: float = ALPHA_DV, tol: float = 1e-12,
-             chunk: int = 32768, keep_series: bool = False) -> DangVan:
+             chunk: int = 32768, keep_series: bool = False,
+             kernel: str | None = None) -> DangVan:
     """τ_DV of every material point of a stress history (docs/model.md §4.3, [B11] eq. 8–10).
 
     ``history`` has shape (m, 6, *points): m time samples of the Voigt stresses (xx, yy, zz, yz,
     xz, xy; tension positive) at every point. Points are processed in chunks of ``chunk`` to
-    bound the temporaries; a point's result does not depend on the chunking.
+    bound the temporaries (NumPy path); a point's result does not depend on the chunking.
+
+    ``kernel``: "numpy" (the reference), "numba" (compiled; ImportError without Numba) or
+    "auto" (compiled where Numba can be imported); None takes :data:`DEFAULT_KERNEL`. The two
+    agree to round-off (module docstring).
     """
+    kernel = DEFAULT_KERNEL if kernel is None else kernel
+    if kernel not in _KERNELS:
+        raise ValueError(f"dang_van: kernel must be one of {_KERNELS}, got {kernel!r}")
     h = np.asarray(history, dtype=float)
     if h.ndim < 2 or h.shape[1] != 6:
         raise ValueError(f"dang_van: history must have shape (m, 6, ...), got {h.shape}")
     m, pts = h.shape[0], h.shape[2:]
     flat = h.reshape(m, 6, -1)
     n = flat.shape[2]
+    compiled = numba_kernel() if kernel != "numpy" else None
+    if kernel == "numba" and compiled is None:
+        raise ImportError("dang_van: kernel='numba' needs Numba (python3-numba; "
+                          "docs/install.md)")
+    if compiled is not None:
+        return _dang_van_compiled(compiled, flat, pts, alpha, tol, keep_series)
     tau = np.empty(n)
     rad = np.empty(n)
     series = np.empty((m, n)) if keep_series else None
@@ -305,3 +373,20 @@ def dang_van(history: np.ndarray, alpha: float = ALPHA_DV, tol: float = 1e-12,
         most = max(most, int(iters.max(initial=0)))
     return DangVan(tau_dv=tau.reshape(pts), radius=rad.reshape(pts), iterations=most,
                    series=None if series is None else series.reshape((m, *pts)))
+
+
+def _dang_van_compiled(compiled, flat, pts, alpha, tol, keep_series, max_iter=2000) -> DangVan:
+    """dang_van on the compiled kernel (enclosing_ball's defaults: max_iter, correct_every=1)."""
+    m, _, n = flat.shape
+    tau, rad = np.empty(n), np.empty(n)
+    iters = np.empty(n, dtype=np.int64)
+    series = np.empty((m, n) if keep_series else (1, 1))
+    if n:
+        compiled(np.ascontiguousarray(flat), float(alpha), float(tol), int(max_iter),
+                 bool(keep_series), tau, rad, series, iters)
+    if (iters < 0).any():
+        raise RuntimeError(f"enclosing_ball: {int((iters < 0).sum())} point sets not converged "
+                           f"to tol = {tol:g} after {max_iter} iterations")
+    return DangVan(tau_dv=tau.reshape(pts), radius=rad.reshape(pts),
+                   iterations=int(iters.max(initial=0)),
+                   series=series.reshape((m, *pts)) if keep_series else None)
