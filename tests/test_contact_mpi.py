@@ -17,7 +17,7 @@ import pytest
 from test_life import tiny_doc
 
 from micropit_hpc.conditions import contact_study
-from micropit_hpc.cycle import PositionCycle
+from micropit_hpc.cycle import PositionCycle, contact_split_min_cells
 from micropit_hpc.lubrication.dry import ContactError, ElasticHalfSpaces, solve_dry_contact
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.scene import LubricationSpec, scene_from_dict
@@ -117,7 +117,7 @@ def test_a_failing_dry_contact_fails_on_every_rank():
 @pytest.mark.mpi(min_size=2)
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("model", ["auto", "dry"])
-def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model):
+def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model, monkeypatch):
     """Every time step of the tiny disc scene (mixed model, and the dry one) with the window
     split over 2 ranks (``--ranks-per-item 2``), twice: the second pass warm-started by the
     first's ``warm`` dicts, as a life block's evaluations are. Pressure, clearance and φ within
@@ -125,6 +125,7 @@ def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model):
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
+    monkeypatch.setenv("MICROPIT_CONTACT_SPLIT_MIN_CELLS", "0")      # split even 27²
     doc = tiny_doc(slide_roll=(0.3,))
     doc["window"]["n"] = 27
     doc["lubrication"] = {"model": model}
@@ -132,7 +133,7 @@ def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model):
     study = contact_study(scene)
     one = PositionCycle(study, 1)
     split = PositionCycle(study, 1, comm=comm)
-    ok = split.slab.nx_local == (14 if comm.rank == 0 else 13)
+    ok = split.slab.nx_local == (14 if comm.rank == 0 else 13) and split.half_spaces.distributed
     ok = ok and split.level == one.level == ("mixed" if model == "auto" else "dry")
     worst, iters = 0.0, []
     # a mixed step adds up the iterations of its ~5–10 dry solves (load-fraction scan and
@@ -159,4 +160,29 @@ def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model):
     if comm.rank == 0:
         print(f"tiny disc ({model}): iterations {iters}; largest relative difference "
               f"{worst:.2e}")
+    assert agree(comm, ok)
+
+
+@pytest.mark.mpi(min_size=2)
+def test_a_small_window_solves_its_contact_on_every_rank_alike_as_one_rank(monkeypatch):
+    """Below contact_split_min_cells the group's ranks each solve the whole window: the
+    one-rank numbers, bit for bit, and no communication in the solver."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    monkeypatch.delenv("MICROPIT_CONTACT_SPLIT_MIN_CELLS", raising=False)
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["lubrication"] = {"model": "dry"}
+    study = contact_study(scene_from_dict(doc, "tiny.toml"))
+    one = PositionCycle(study, 1)
+    split = PositionCycle(study, 1, comm=comm)
+    ok = split.grid.nx * split.grid.ny < contact_split_min_cells()
+    ok = ok and split.slab.comm.size == 2 and not split.half_spaces.distributed
+    p1 = p2 = None
+    for j in range(one.steps):
+        a, b = one.solve_step(j, p1), split.solve_step(j, p2)
+        p1, p2 = a.pressure, b.pressure
+        ok = ok and a.iterations == b.iterations and all(
+            np.array_equal(x, y) for x, y in ((a.pressure, b.pressure),
+                                              (a.clearance, b.clearance)))
     assert agree(comm, ok)

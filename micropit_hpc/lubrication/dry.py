@@ -36,6 +36,8 @@ class DryContact:
 
     ``gap`` is the deformed gap g = g0 + u − δ (0 on elastic contact, < 0 where plastic);
     ``approach`` is δ; ``error`` the final relative residual (see :func:`solve_dry_contact`).
+    From a distributed solve, ``pressure`` and ``gap`` (and so :attr:`contact` and
+    :attr:`area_fraction`) are this rank's rows only.
     """
 
     pressure: np.ndarray
