@@ -12,6 +12,9 @@ The 2-D fields (heights, pressure, wear, pits) are small and replicated.
   interpreter shutdown, reproduced with 27² windows). A one-rank group takes the same code
   path with the serial pre-planned pyFFTW transform (mpi4py-fft costs 1.3–1.8× raw pyFFTW
   on one rank, docs/hpc.md §2).
+* The contact solvers use the same rows (docs/hpc.md §2): :meth:`Slab.filtered` is their
+  convolution, :meth:`Slab.sums` their reductions (allgathered, added in rank order: the same
+  on every rank).
 * (x, y, z) fields: a PETSc DMDA with the same x ownership (sizes (n_y, n_x, N_z), processes
   (1, R, 1)), whose vectors wrap the slab arrays without a copy (``Vec.createWithArray``);
   :meth:`Slab.gather` brings a field to the group root in natural order through the DMDA's
