@@ -119,9 +119,9 @@ def test_a_failing_dry_contact_fails_on_every_rank():
 @pytest.mark.parametrize("model", ["auto", "dry"])
 def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model, monkeypatch):
     """Every time step of the tiny disc scene (mixed model, and the dry one) with the window
-    split over 2 ranks (``--ranks-per-item 2``), twice: the second pass warm-started by the
-    first's ``warm`` dicts, as a life block's evaluations are. Pressure, clearance and φ within
-    1e-12 relative, the contact sets equal."""
+    split over 2 ranks (``--ranks-per-item 2``), three times: the later passes warm-started by
+    the earlier ``warm`` dicts, as a life block's evaluations are, the last with unloaded
+    pits. Pressure, clearance and φ within 1e-12 relative, the contact sets equal."""
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
@@ -140,7 +140,12 @@ def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model, monkeyp
     # root search), each of which may stop one iteration apart at round-off: measured ±2
     slack = 1 if model == "dry" else 3
     warm1, warm2 = {}, {}
-    for _ in range(2):
+    pits = np.zeros(one.grid.shape, bool), np.zeros(one.grid.shape, bool)
+    pits[0][5:9, 3:7] = pits[1][20:22, 10:20] = True
+    for sweep in range(3):
+        if sweep == 2:      # unloaded pits (life.pit_contact = "unloaded"), whole maps
+            for c in (one, split):
+                c.set_surfaces(c.surfaces, pits)
         p1 = p2 = None
         for j in range(one.steps):
             a = one.solve_step(j, p1, warm1.setdefault(j, {}))
