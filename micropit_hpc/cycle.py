@@ -22,6 +22,7 @@ docs/model.md §5).
 from __future__ import annotations
 
 import math
+import os
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -40,7 +41,6 @@ from micropit_hpc.mechanics.halfspace import HalfSpaceStress
 from micropit_hpc.mechanics.hertz_field import EllipticalContactField, line_contact_stress
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.parallel.petsc import event
-from micropit_hpc.parallel.share import from_root
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.plan import Window, choose_level
 from micropit_hpc.spectral import fourier_shift, rfft_plan, to_material_frame
@@ -50,8 +50,28 @@ from micropit_hpc.surfaces import (
 from micropit_hpc.surfaces.bodies import body_surface
 from micropit_hpc.wear import WearRate, archard_wear
 
-__all__ = ["BodyCycle", "CycleResult", "PositionCycle", "StepFields", "micro_cycles",
-           "rainflow_steps"]
+__all__ = ["BodyCycle", "CycleResult", "PositionCycle", "StepFields", "contact_split_min_cells",
+           "micro_cycles", "rainflow_steps"]
+
+#: Windows of at least this many cells split the contact solve of a group of several ranks
+#: over its slabs (docs/hpc.md §2); smaller ones solve it on every rank of the group alike,
+#: without communication (the one-rank numbers, bit for bit), because the collectives of
+#: every CG iteration then cost more than the arithmetic they share (docs/performance.md,
+#: "Distributed contact"). Overridden by ``MICROPIT_CONTACT_SPLIT_MIN_CELLS``.
+CONTACT_SPLIT_MIN_CELLS = 128 * 128
+
+
+def contact_split_min_cells() -> int:
+    """:data:`CONTACT_SPLIT_MIN_CELLS`, or ``MICROPIT_CONTACT_SPLIT_MIN_CELLS`` when set (0:
+    always split, e.g. to test the distributed solver on a small window)."""
+    text = os.environ.get("MICROPIT_CONTACT_SPLIT_MIN_CELLS", "").strip()
+    if not text:
+        return CONTACT_SPLIT_MIN_CELLS
+    try:
+        return int(text)
+    except ValueError:
+        raise MicropitError(f"MICROPIT_CONTACT_SPLIT_MIN_CELLS={text!r}: give a whole number "
+                            "of cells") from None
 
 
 
@@ -137,9 +157,12 @@ class PositionCycle:
     (docs/model.md §4).
 
     ``comm``: the ranks of the work item's group (default: this rank alone). With several
-    ranks the contact of a step is solved on the group root and broadcast (it is 2-D and
-    small); the stresses are computed on each rank's x-slab (:attr:`slab`, a one-rank slab
-    without ``comm``).
+    ranks the contact of a step (dry and mixed levels) is solved by the whole group on the
+    x rows of :attr:`slab` (distributed FFTs, reductions in rank order; :meth:`solve_step`)
+    and its 2-D maps then allgathered, or, on a window of fewer than
+    :func:`contact_split_min_cells` cells, by every rank alike on the whole window; the
+    stresses are computed on each rank's x-slab (:attr:`slab`, a one-rank slab without
+    ``comm``).
 
     ``k_lub``: the work item's wear coefficient [s], one of ``wear.k_lub_s``. It is the cycle's
     like its position and surfaces: fixed for the item's life, and all that the cycle needs to
@@ -173,19 +196,23 @@ class PositionCycle:
         self.t_f = 2.0 * c.b / c.u_mean
         lub = scene.lubrication
         self.p_lim = lub.p_lim_hardness * min(scene.body1.hardness, scene.body2.hardness)
-        self.half_spaces = ElasticHalfSpaces(g, study.E_prime)
+        self.z = self.window.z
+        self.slab = Slab(SerialComm() if comm is None else comm, g, self.z.size)
+        # the contact solvers work on the slab's rows, or on the whole window on every rank
+        # of the group alike where the window is too small to gain (contact_split_min_cells)
+        split = self.slab.comm.size > 1 and g.nx * g.ny >= contact_split_min_cells()
+        self.half_spaces = ElasticHalfSpaces(g, study.E_prime, self.slab if split else None)
         self.mixed = None
         if self.level == "mixed":
             self.mixed = MixedLubrication(
                 g, geometry="line" if c.geometry == "line" else "elliptical", load=c.load,
                 R=c.R, b=c.b, u1=c.u1, u2=c.u2, h_mean=c.hc, E_prime=study.E_prime,
-                lubrication=lub, lubricant=scene.lubricant, p_lim=self.p_lim)
+                lubrication=lub, lubricant=scene.lubricant, p_lim=self.p_lim,
+                slab=self.half_spaces.slab)
         fat = scene.fatigue
         self.woehler = WoehlerLine.from_spec(fat)
         self.alpha_dv = ALPHA_DV if fat.alpha is None else fat.alpha
         self.k_lub = float(k_lub)
-        self.z = self.window.z
-        self.slab = Slab(SerialComm() if comm is None else comm, g, self.z.size)
         self._micro: dict[int, HalfSpaceStress] = {}
         self._macro_ellipse: dict[int, EllipticalContactField] = {}
 
@@ -227,11 +254,18 @@ class PositionCycle:
     def solve_step(self, step: int, p_init: np.ndarray | None = None,
                    warm: dict | None = None) -> StepFields:
         """Contact at time step ``step`` (docs/model.md §4.1); collective over the group: the
-        root solves and every rank gets its fields. ``p_init``: a warm start (the previous
-        step's pressure); ``warm``: a dict the caller keeps for this step from one load-cycle
-        evaluation to the next, whose pressures (the last evaluation's at this step) take
-        precedence as warm starts and are updated (:meth:`MixedLubrication.solve`)."""
-        return from_root(self.slab.comm, lambda: self._solve_step(step, p_init, warm))
+        dry and mixed solvers run on every rank of the group over its x rows (:attr:`slab`;
+        distributed FFTs, sums in rank order, so every rank takes the same branches and
+        raises the same errors) and the solution's pressure and clearance are allgathered;
+        on a window of fewer than :func:`contact_split_min_cells` cells every rank solves
+        the whole window itself instead, without communication (the one-rank numbers). The
+        rest of the step (pits, friction, tractions) is done on the whole window by every
+        rank alike: every rank gets the whole-window fields. ``p_init``: a warm start (the
+        previous step's pressure, whole window); ``warm``: a dict the caller keeps for this
+        step from one load-cycle evaluation to the next, whose pressures (the last
+        evaluation's at this step; this rank's rows) take precedence as warm starts and are
+        updated (:meth:`MixedLubrication.solve`)."""
+        return self._solve_step(step, p_init, warm)
 
     # the contact of one step at each level (:data:`~micropit_hpc.plan.LEVELS`): (rough
     # clearance spectra at t, p̄, t, warm start, warm dict) → (pressure, clearance, φ, iterations)
@@ -242,13 +276,19 @@ class PositionCycle:
 
     def _dry_contact(self, r_now, p_mean: float, t: float, p_init, warm):
         """Elastic–perfectly-plastic contact of the roughness; the solids carry all (φ = 1)."""
-        lub = self.scene.lubrication
-        gap0 = self._fft.inverse(r_now[0] + r_now[1])
-        start = p_init if warm is None else warm.get("dry", p_init)
+        lub, hs = self.scene.lubrication, self.half_spaces
+        rows = hs.rows            # the solver's rows (docs/hpc.md §2; not split: all)
+        gap0 = self._fft.inverse(r_now[0] + r_now[1])[rows]
+        start = None if p_init is None else p_init[rows]
+        if warm is not None:
+            start = warm.get("dry", start)
         sol = solve_dry_contact(gap0, self.half_spaces, p_mean, p_lim=self.p_lim,
                                 tol=lub.tol, max_iter=lub.max_iter, p_init=start)
         if warm is not None:
-            warm["dry"] = sol.pressure.astype(np.float32)
+            warm["dry"] = sol.pressure.astype(np.float32)     # this rank's rows
+        if hs.distributed:
+            return (hs.slab.allgather_rows(sol.pressure), hs.slab.allgather_rows(sol.gap), 1.0,
+                    sol.iterations)
         return sol.pressure, sol.gap, 1.0, sol.iterations
 
     def _mixed_contact(self, r_now, p_mean: float, t: float, p_init, warm):

@@ -36,6 +36,8 @@ class DryContact:
 
     ``gap`` is the deformed gap g = g0 + u − δ (0 on elastic contact, < 0 where plastic);
     ``approach`` is δ; ``error`` the final relative residual (see :func:`solve_dry_contact`).
+    From a distributed solve, ``pressure`` and ``gap`` (and so :attr:`contact` and
+    :attr:`area_fraction`) are this rank's rows only.
     """
 
     pressure: np.ndarray
@@ -58,9 +60,16 @@ class ElasticHalfSpaces:
     """The combined surface compliance of two elastic half-spaces on a periodic grid:
     û = (4/(E' κ)) p̂ (docs/model.md §4.1 step 1; Johnson, Contact Mechanics §3.? for one body:
     2(1−ν²)/(E κ)). The mean mode is left out: a uniform pressure only moves the bodies
-    together, which the rigid approach accounts for."""
+    together, which the rigid approach accounts for.
 
-    def __init__(self, grid: Grid, E_prime: float):
+    ``slab``: a :class:`~micropit_hpc.parallel.slab.Slab` of a work item's group over which
+    the contact is distributed (docs/hpc.md §2): :meth:`displacement` then takes and returns
+    this rank's x rows (``slab.rows``) and transforms by the slab's distributed FFT, and
+    :func:`solve_dry_contact` works on rows with the group's reductions. None (default): the
+    whole window on this rank. A one-rank slab computes the same numbers as None.
+    """
+
+    def __init__(self, grid: Grid, E_prime: float, slab=None):
         self.grid = grid
         self.E_prime = float(E_prime)
         kappa = grid.kappa.copy()
@@ -68,20 +77,37 @@ class ElasticHalfSpaces:
         self.compliance = 4.0 / (self.E_prime * kappa)
         self.compliance[0, 0] = 0.0
         self._fft = rfft_plan(grid.shape)
+        self.slab = slab
+        self._transfer = (None if slab is None
+                          else np.ascontiguousarray(self.compliance[:, slab.cols]))
+
+    @property
+    def rows(self) -> slice:
+        """The x rows of the window that :meth:`displacement` works on (all without a slab)."""
+        return slice(0, self.grid.nx) if self.slab is None else self.slab.rows
+
+    @property
+    def distributed(self) -> bool:
+        """True when the rows are split over several ranks."""
+        return self.slab is not None and self.slab.comm.size > 1
 
     def displacement(self, p: np.ndarray) -> np.ndarray:
-        """Combined normal displacement u(p) of the two surfaces (zero mean) [m]."""
-        return self._fft.filtered(p, self.compliance)
+        """Combined normal displacement u(p) of the two surfaces (zero mean) [m]. With a slab:
+        ``p`` and u are this rank's rows (collective)."""
+        if self.slab is None:
+            return self._fft.filtered(p, self.compliance)
+        return self.slab.filtered(p, self._transfer)
 
     @cached_property
     def self_compliance(self) -> float:
         """K₀ [m/Pa]: the combined displacement of one cell under unit pressure on that cell
         alone, on this grid: the diagonal of the discrete compliance operator. For a square
         cell of side s it is within 3 % of the continuum value 8 s asinh(1)/(π E') (uniform
-        pressure on a square, Love 1929; Johnson, *Contact Mechanics* (1985) §3.2)."""
+        pressure on a square, Love 1929; Johnson, *Contact Mechanics* (1985) §3.2). Computed
+        on the whole window on this rank (not collective), with or without a slab."""
         unit = np.zeros(self.grid.shape)
         unit[0, 0] = 1.0
-        return float(self.displacement(unit)[0, 0])
+        return float(self._fft.filtered(unit, self.compliance)[0, 0])
 
     @cached_property
     def stiffness(self) -> np.ndarray:
@@ -91,45 +117,73 @@ class ElasticHalfSpaces:
         return stiff
 
 
+class _Group:
+    """The reductions of the contact solver over the ranks that share the window's rows
+    (:class:`~micropit_hpc.parallel.slab.Slab`): sums added in rank order, so every rank gets
+    the same numbers and takes the same branches. Without a slab, or on one rank, the values
+    pass unchanged: the solver then computes exactly what the serial code computes."""
+
+    def __init__(self, slab):
+        self.slab = None if slab is None or slab.comm.size == 1 else slab
+
+    def sums(self, *values):
+        return values if self.slab is None else self.slab.sums(values)
+
+    def max(self, value):
+        return value if self.slab is None else self.slab.max(value)
+
+    def min(self, value):
+        return value if self.slab is None else self.slab.min(value)
+
+    def any(self, mask: np.ndarray) -> bool:
+        local = bool(mask.any())
+        return local if self.slab is None else self.slab.max(float(local)) > 0.0
+
+
 def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float,
                    tol: float, max_iter: int, p: np.ndarray,
-                   excluded: np.ndarray | None) -> tuple[np.ndarray, np.ndarray, int, float]:
+                   excluded: np.ndarray | None, N: int,
+                   group: _Group) -> tuple[np.ndarray, np.ndarray, int, float]:
     """Elastic load-controlled contact, Polonsky & Keer (1999) eqs. (13)–(22); points in
-    ``excluded`` carry no pressure and may not enter. Returns (p, g − ḡ, iterations, ε)."""
-    N = g0.size
+    ``excluded`` carry no pressure and may not enter. Returns (p, g − ḡ, iterations, ε).
+    ``g0``, ``p``, ``excluded``: this rank's rows of the ``N`` points of the window; every sum
+    and scalar product is reduced over ``group``."""
     allowed = None if excluded is None else ~excluded
     if allowed is not None:
         p[excluded] = 0.0
-    p *= P * N / p.sum()
+    (p_sum,) = group.sums(p.sum())
+    p *= P * N / p_sum
     t = np.zeros_like(g0)
     G_old, conjugate, error = 1.0, False, math.inf
     for it in range(1, max_iter + 1):
         g = g0 + hs.displacement(p)
         contact = p > 0.0
-        g -= g[contact].mean()
+        g_sum, n_contact = group.sums(g[contact].sum(), np.count_nonzero(contact))
+        g -= g_sum / n_contact
         r_c = np.where(contact, g, 0.0)
-        G = float(np.vdot(r_c, r_c))
-        error = math.sqrt(G / np.count_nonzero(contact)) / scale
+        (G,) = group.sums(float(np.vdot(r_c, r_c)))
+        error = math.sqrt(G / n_contact) / scale
         if error <= tol:
             return p, g, it, error
         t = r_c + (G / G_old) * t if conjugate else r_c
         t[~contact] = 0.0
         G_old = G
         r = hs.displacement(t)
-        r -= r[contact].mean()
-        curvature = float(np.vdot(r, t))
+        (r_sum,) = group.sums(r[contact].sum())
+        r -= r_sum / n_contact
+        curvature, rt = group.sums(float(np.vdot(r, t)), float(np.vdot(r_c, t)))
         if curvature <= 0.0:   # no descent left at round-off level
             return p, g, it, error
-        tau = float(np.vdot(r_c, t)) / curvature
+        tau = rt / curvature
         p = p - tau * t
         np.maximum(p, 0.0, out=p)
         enter = (p == 0.0) & (g < 0.0)          # overlap without pressure: enters the contact
         if allowed is not None:
             enter &= allowed
-        conjugate = not enter.any()
-        if not conjugate:
-            p[enter] -= tau * g[enter]
-        p *= P * N / p.sum()
+        p[enter] -= tau * g[enter]              # nothing where no point enters
+        n_enter, p_sum = group.sums(np.count_nonzero(enter), p.sum())
+        conjugate = not n_enter
+        p *= P * N / p_sum
     return p, g, max_iter, error
 
 
@@ -151,39 +205,54 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     ``max_iter`` are the scene's ``lubrication.tolerance`` and ``lubrication.max_iterations``
     (:class:`~micropit_hpc.scene.LubricationSpec`), which the callers pass.
 
+    Distributed (``half_spaces`` built with a slab of several ranks, docs/hpc.md §2):
+    collective over the slab's group; ``gap0``, ``p_init`` and the solution's pressure and gap
+    are this rank's x rows (``half_spaces.rows``); the approach, iterations and residual are
+    the window's, the same on every rank. Equal to the one-rank solution to round-off (the
+    sums are added in another order).
+
     Raises :class:`ContactError` when the load cannot be carried (P ≥ p_lim) or the iteration
-    does not converge.
+    does not converge (on every rank of a group alike).
     """
     hs = half_spaces
     grid = hs.grid
+    group = _Group(hs.slab)
+    rows = hs.rows
     g0 = np.asarray(gap0, dtype=float)
-    if g0.shape != grid.shape:
-        raise ValueError(f"gap shape {g0.shape} != grid {grid.shape}")
+    local_shape = (rows.stop - rows.start, grid.ny)
+    if g0.shape != local_shape:
+        raise ValueError(f"gap shape {g0.shape} != grid {grid.shape}" +
+                         ("" if local_shape == grid.shape else f" rows {rows}"))
     P = float(mean_pressure)
     if not math.isfinite(P) or P < 0.0:
         raise ContactError(f"dry contact: mean pressure {P} Pa must be finite and ≥ 0")
+    g_min = group.min(g0.min())
     if P == 0.0:
-        g = g0 - g0.min()
-        return DryContact(np.zeros_like(g0), g, float(g0.min()), 0, 0.0)
+        g = g0 - g_min
+        return DryContact(np.zeros_like(g0), g, float(g_min), 0, 0.0)
     if P >= p_lim:
         raise ContactError(
             f"dry contact: mean pressure {P / 1e9:.4g} GPa ≥ the pressure cap p_lim = "
             f"{p_lim / 1e9:.4g} GPa: the whole window would yield (raise the hardness or "
             "lower the load)")
-    scale = float(np.sqrt(np.mean((g0 - g0.mean()) ** 2)))
-    if np.ptp(g0) == 0.0:  # flat: uniform pressure is the exact solution
-        return DryContact(np.full_like(g0, P), np.zeros_like(g0), float(g0.mean()), 0, 0.0)
+    N = grid.nx * grid.ny
+    (g0_sum,) = group.sums(g0.sum())
+    g0_mean = g0_sum / N
+    (sq_sum,) = group.sums(((g0 - g0_mean) ** 2).sum())
+    scale = float(np.sqrt(sq_sum / N))
+    if group.max(g0.max()) - g_min == 0.0:  # flat: uniform pressure is the exact solution
+        return DryContact(np.full_like(g0, P), np.zeros_like(g0), float(g0_mean), 0, 0.0)
 
     p = np.full_like(g0, P) if p_init is None else np.clip(p_init, 0.0, None).astype(float)
-    if not p.any():
+    if not group.any(p):
         p[...] = P
     plastic = p >= p_lim
     used, error, settled = 0, math.inf, False
-    N = g0.size
     updates = 0
     while used < max_iter:
         updates += 1
-        n_pl = np.count_nonzero(plastic)
+        (n_pl,) = group.sums(np.count_nonzero(plastic))
+        n_pl = int(n_pl)
         P_el = P - p_lim * n_pl / N if n_pl else P
         if P_el <= 0.0:   # the cap alone would carry more than the load: start the set anew
             plastic[...] = False
@@ -192,17 +261,18 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         if n_pl:
             g_fixed = g0 + hs.displacement(np.where(plastic, p_lim, 0.0))
             p = np.where(plastic, 0.0, p)
-            if not p.any():
+            if not group.any(p):
                 p = np.where(plastic, 0.0, P_el)
         p, g, it, error = _polonsky_keer(g_fixed, hs, P_el, scale, tol, max_iter - used, p,
-                                         plastic if n_pl else None)
+                                         plastic if n_pl else None, N, group)
         used += it
         if error > tol:
             break
         p_total = np.where(plastic, p_lim, p)
         grow = p > p_lim
         release = plastic & (g > 0.0)
-        if not grow.any() and not release.any():
+        n_grow, n_release = group.sums(np.count_nonzero(grow), np.count_nonzero(release))
+        if not n_grow and not n_release:
             p, settled = p_total, True
             break
         plastic = (plastic & ~release) | grow
@@ -215,4 +285,5 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
             f"dry contact did not converge: {why} after {used} iterations (raise "
             "lubrication.max_iterations or the tolerance; "
             "check that the roughness is resolved by the grid)")
-    return DryContact(p, g, float(np.mean(g0 + hs.displacement(p) - g)), used, error)
+    (delta_sum,) = group.sums((g0 + hs.displacement(p) - g).sum())
+    return DryContact(p, g, float(delta_sum / N), used, error)

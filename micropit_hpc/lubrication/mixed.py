@@ -44,7 +44,7 @@ import numpy as np
 
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.lubrication import rheology
-from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
+from micropit_hpc.lubrication.dry import ElasticHalfSpaces, _Group, solve_dry_contact
 from micropit_hpc.spectral import Grid, rfft_plan
 
 if TYPE_CHECKING:
@@ -107,11 +107,17 @@ class MixedLubrication:
     and amplitude prefactor c_nn of ∇_nn, the calibrated one when not given,
     :func:`~.rheology.calibrated_prefactor`), the ``lubricant`` (η0, α, Eyring τ0) and the
     pressure cap ``p_lim`` = p_lim_hardness × the smaller hardness [Pa].
+
+    ``slab``: the :class:`~micropit_hpc.parallel.slab.Slab` of a work item's group; with
+    several ranks :meth:`solve` is collective and its dry solves are distributed over the
+    slab's x rows (docs/hpc.md §2). The spectral steps (lubricated clearance, step 4) are
+    2-D and cheap and are done on the whole window by every rank alike.
     """
 
     def __init__(self, grid: Grid, *, geometry: str, load: float, R: float, b: float,
                  u1: float, u2: float, h_mean: float, E_prime: float,
-                 lubrication: LubricationSpec, lubricant: Lubricant, p_lim: float):
+                 lubrication: LubricationSpec, lubricant: Lubricant, p_lim: float,
+                 slab=None):
         self.grid, self.spec, self.lubricant = grid, lubrication, lubricant
         self.p_lim = float(p_lim)
         self.prefactor = (CALIBRATED_PREFACTOR if lubrication.prefactor is None
@@ -119,7 +125,7 @@ class MixedLubrication:
         self.E_prime, self.h_mean = float(E_prime), float(h_mean)
         self.u = (float(u1), float(u2))
         self.u_mean = 0.5 * (u1 + u2)
-        self.hs = ElasticHalfSpaces(grid, E_prime)
+        self.hs = ElasticHalfSpaces(grid, E_prime, slab)
         self._fft = rfft_plan(grid.shape)
         M, L = rheology.moes_parameters(geometry, load, R, E_prime, lubricant.eta0, self.u_mean,
                                         lubricant.alpha_pv)
@@ -214,14 +220,21 @@ class MixedLubrication:
         the same places, changed only by a sub-block's wear and pits): the solves at each
         trial load fraction of :data:`PHI_SCAN` start from the pressure they had in the last
         evaluation, the root search tries the last evaluation's root first (inside the
-        bracket) and starts its solves from that root's pressure, and the dict is updated."""
+        bracket) and starts its solves from that root's pressure, and the dict is updated.
+
+        With a slab of several ranks (collective): ``r_now``, ``r_entry`` and ``p_init`` are
+        the whole window's on every rank, the pressures kept in ``warm`` this rank's rows
+        (``self.hs.rows``), and the solution is the whole window's on every rank."""
         prm, fft, g = self.spec, self._fft, self.grid
+        hs, rows = self.hs, self.hs.rows
+        group = _Group(hs.slab)
+        N = g.nx * g.ny
         r_tot = r_now[0] + r_now[1]
         r_tot = r_tot.copy()
         r_tot[0, 0] = 0.0
         H_t = self.lubricated_clearance(r_now, r_entry, p_mean, t)
         h_bar = self.h_mean
-        state = {"p": p_init, "iters": 0}
+        state = {"p": None if p_init is None else p_init[rows], "iters": 0}
 
         def clearance_spectrum(phi):
             if prm.fluid_share == "scaled":
@@ -233,16 +246,17 @@ class MixedLubrication:
             start = state["p"]
             if warm is not None:
                 start = warm.get(phi if phi in PHI_SCAN else "root", start)
-            sol = solve_dry_contact(fft.inverse(clearance_spectrum(phi)), self.hs, phi * p_mean,
-                                    p_lim=self.p_lim, tol=prm.tol, max_iter=prm.max_iter,
-                                    p_init=start)
+            sol = solve_dry_contact(fft.inverse(clearance_spectrum(phi))[rows], hs,
+                                    phi * p_mean, p_lim=self.p_lim, tol=prm.tol,
+                                    max_iter=prm.max_iter, p_init=start)
             state["iters"] += sol.iterations
-            if sol.pressure.any():
+            if group.any(sol.pressure):
                 state["p"] = sol.pressure
                 if warm is not None and phi in PHI_SCAN:
                     warm[phi] = sol.pressure.astype(np.float32)
             c_rho = float(rheology.density_correction(phi * p_mean))
-            return float(np.maximum(sol.gap, 0.0).mean()) - c_rho * h_bar, sol
+            (open_sum,) = group.sums(np.maximum(sol.gap, 0.0).sum())
+            return float(open_sum / N) - c_rho * h_bar, sol
 
         f0, _ = film(0.0)
         if f0 <= 0.0:  # full film: the fluid carries everything, surfaces apart
@@ -282,7 +296,7 @@ class MixedLubrication:
                     flo *= 0.5
         if warm is not None and hi is not None:
             warm["root"], warm["phi"] = sol.pressure.astype(np.float32), phi
-        clearance = sol.gap
+        clearance = sol.gap if group.slab is None else group.slab.allgather_rows(sol.gap)
         H_final = fft.forward(clearance)
         if prm.combine == "max_amplitude":
             H_lub = clearance_spectrum(phi)

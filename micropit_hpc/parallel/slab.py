@@ -12,6 +12,9 @@ The 2-D fields (heights, pressure, wear, pits) are small and replicated.
   interpreter shutdown, reproduced with 27² windows). A one-rank group takes the same code
   path with the serial pre-planned pyFFTW transform (mpi4py-fft costs 1.3–1.8× raw pyFFTW
   on one rank, docs/hpc.md §2).
+* The contact solvers use the same rows (docs/hpc.md §2): :meth:`Slab.filtered` is their
+  convolution, :meth:`Slab.sums` their reductions (allgathered, added in rank order: the same
+  on every rank).
 * (x, y, z) fields: a PETSc DMDA with the same x ownership (sizes (n_y, n_x, N_z), processes
   (1, R, 1)), whose vectors wrap the slab arrays without a copy (``Vec.createWithArray``);
   :meth:`Slab.gather` brings a field to the group root in natural order through the DMDA's
@@ -101,6 +104,21 @@ class Slab:
         self._real[...] = f_local
         return self._pfft.forward(self._real, self._spec.copy(), normalize=False)
 
+    def filtered(self, f_local: np.ndarray, transfer: np.ndarray) -> np.ndarray:
+        """The rows :attr:`rows` of irfft2(rfft2(f) · transfer), normalised, as a new array: a
+        periodic convolution of the field whose rows are ``f_local`` by the transfer function
+        whose k_y columns :attr:`cols` are ``transfer`` (the contact solver's inner loop,
+        :class:`~micropit_hpc.lubrication.dry.ElasticHalfSpaces`). One rank: the serial
+        plan's :meth:`~micropit_hpc.spectral.RealFFT2.filtered`, the same numbers. Collective.
+        """
+        if self._pfft is None:
+            return self._fwd.filtered(f_local, transfer)
+        self._real[...] = f_local
+        spec = self._pfft.forward(self._real, self._spec, normalize=False)
+        spec *= transfer
+        self._pfft.backward(spec, self._real, normalize=True)
+        return self._real.copy()
+
     def inverse6(self, c: np.ndarray, out: np.ndarray) -> np.ndarray:
         """Six inverse transforms (normalised): local spectra ``c`` (6, n_x, len(cols)) into
         the local rows ``out`` (6, len(rows), n_y). Collective."""
@@ -131,6 +149,29 @@ class Slab:
         if self.comm.size == 1:
             return float(value)
         return float(sum(self.comm.allgather(float(value))))
+
+    def min(self, value: float) -> float:
+        """The smallest ``value`` over the group (exact). Collective."""
+        return -self.max(-float(value))
+
+    def sums(self, values) -> tuple:
+        """The sums over the group of each of ``values`` (a few numbers), each added in rank
+        order as :meth:`sum` does, in one collective call: the same on every rank, whatever
+        the timing. One rank: ``values`` unchanged (numpy scalars stay numpy scalars, so a
+        one-rank solver computes the very numbers of the serial code). Collective."""
+        values = tuple(values)
+        if self.comm.size == 1:
+            return values
+        mine = np.array([float(v) for v in values])
+        parts = np.empty((self.comm.size, mine.size))
+        self.comm.Allgather(mine, parts)          # the buffer form: no pickling
+        out = []
+        for i in range(mine.size):
+            total = 0.0
+            for part in parts[:, i].tolist():
+                total += part
+            out.append(total)
+        return tuple(out)
 
     def bcast(self, obj):
         """The group root's ``obj`` on every rank. Collective."""

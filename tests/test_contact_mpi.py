@@ -1,0 +1,193 @@
+"""The contact solvers distributed over a work item's group (docs/hpc.md §2, issue "Scale" 1).
+
+Run under ``mpirun -n 2 ... -m pytest --with-mpi -m mpi``. The dry solver
+(:func:`~micropit_hpc.lubrication.dry.solve_dry_contact`) and the mixed model on the x rows of
+a :class:`~micropit_hpc.parallel.slab.Slab` of ``COMM_WORLD`` against the same problem solved
+on the whole window by each rank alone: equal to 1e-12 relative, the iteration counts within
+one. Every verdict is allgathered before it is asserted (a failure on one rank must not hang
+the other).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+from test_life import tiny_doc
+
+from micropit_hpc.conditions import contact_study
+from micropit_hpc.cycle import PositionCycle, contact_split_min_cells
+from micropit_hpc.lubrication.dry import ContactError, ElasticHalfSpaces, solve_dry_contact
+from micropit_hpc.parallel.slab import Slab
+from micropit_hpc.scene import LubricationSpec, scene_from_dict
+from micropit_hpc.spectral import Grid
+from micropit_hpc.surfaces import gaussian_surface
+
+TOL, MAX_ITER = LubricationSpec().tol, LubricationSpec().max_iter
+E_PRIME = 210e9 / (1 - 0.3**2)
+RTOL = 1e-12
+
+
+def agree(comm, ok) -> bool:
+    return all(comm.allgather(bool(ok)))
+
+
+def rel(a, b) -> float:
+    """Largest difference relative to the largest magnitude of the reference."""
+    scale = float(np.abs(b).max())
+    return float(np.abs(a - b).max()) / scale if scale > 0 else float(np.abs(a - b).max())
+
+
+def _slab(g):
+    from mpi4py import MPI
+
+    return Slab(MPI.COMM_WORLD, g, 1)
+
+
+def _compare_dry(g, gap0, P, p_lim=math.inf, p_init=None, report=""):
+    """Distributed against serial on every rank; returns (ok, worst relative difference)."""
+    slab = _slab(g)
+    comm, rows = slab.comm, slab.rows
+    serial = solve_dry_contact(gap0, ElasticHalfSpaces(g, E_PRIME), P, p_lim, tol=TOL,
+                               max_iter=MAX_ITER, p_init=p_init)
+    dist = solve_dry_contact(gap0[rows], ElasticHalfSpaces(g, E_PRIME, slab), P, p_lim,
+                             tol=TOL, max_iter=MAX_ITER,
+                             p_init=None if p_init is None else p_init[rows])
+    p = slab.allgather_rows(dist.pressure)
+    gap = slab.allgather_rows(dist.gap)
+    worst = max(rel(p, serial.pressure), rel(gap, serial.gap),
+                abs(dist.approach - serial.approach) / abs(serial.approach))
+    ok = (dist.pressure.shape == (slab.nx_local, g.ny) and worst <= RTOL
+          and abs(dist.iterations - serial.iterations) <= 1
+          # the scalars are the same on every rank
+          and len(set(comm.allgather((dist.approach, dist.iterations, dist.error)))) == 1)
+    if comm.rank == 0:
+        print(f"{report}: {serial.iterations} / {dist.iterations} iterations, "
+              f"largest relative difference {worst:.2e}")
+    return ok, serial, dist
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.parametrize("n", [64, 45])
+def test_dry_contact_of_a_sphere_on_two_ranks_equals_one_rank(n):
+    """Hertz-like smooth gap (odd n: slabs of 23 and 22 rows)."""
+    from mpi4py import MPI
+
+    g = Grid(n, n + 3, 2e-3, 2e-3 * (n + 3) / n)
+    X, Y = np.meshgrid(g.x, g.y, indexing="ij")
+    gap0 = (X**2 + Y**2) / (2 * 0.01)
+    ok, serial, _ = _compare_dry(g, gap0, 0.1e9, report=f"sphere {n}")
+    ok = ok and serial.area_fraction > 0.01
+    assert agree(MPI.COMM_WORLD, ok)
+
+
+@pytest.mark.mpi(min_size=2)
+def test_rough_plastic_dry_contact_and_its_warm_start_on_two_ranks_equal_one_rank():
+    """A random rough gap with the cap p_lim active (plastic cells), cold and warm-started."""
+    from mpi4py import MPI
+
+    g = Grid(96, 80, 4e-4, 4e-4 * 80 / 96)
+    z = gaussian_surface(g, 1e-6, 20e-6, 60e-6, seed=7).heights
+    gap0 = z.max() - z
+    p_lim = 2.0e9
+    ok, serial, _ = _compare_dry(g, gap0, 0.8e9, p_lim, report="rough plastic")
+    ok = ok and np.count_nonzero(serial.pressure >= p_lim) > 20
+    ok2, _, _ = _compare_dry(g, gap0, 0.88e9, p_lim, p_init=serial.pressure,
+                             report="rough plastic, warm")
+    assert agree(MPI.COMM_WORLD, ok and ok2)
+
+
+@pytest.mark.mpi(min_size=2)
+def test_a_failing_dry_contact_fails_on_every_rank():
+    from mpi4py import MPI
+
+    g = Grid(32, 32, 4e-4, 4e-4)
+    z = gaussian_surface(g, 1e-6, 20e-6, 60e-6, seed=7).heights
+    slab = _slab(g)
+    raised = False
+    try:
+        solve_dry_contact((z.max() - z)[slab.rows], ElasticHalfSpaces(g, E_PRIME, slab), 1e9,
+                          tol=TOL, max_iter=3)
+    except ContactError:
+        raised = True
+    assert agree(MPI.COMM_WORLD, raised)
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("model", ["auto", "dry"])
+def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model, monkeypatch):
+    """Every time step of the tiny disc scene (mixed model, and the dry one) with the window
+    split over 2 ranks (``--ranks-per-item 2``), three times: the later passes warm-started by
+    the earlier ``warm`` dicts, as a life block's evaluations are, the last with unloaded
+    pits. Pressure, clearance and φ within 1e-12 relative, the contact sets equal."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    monkeypatch.setenv("MICROPIT_CONTACT_SPLIT_MIN_CELLS", "0")      # split even 27²
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["window"]["n"] = 27
+    doc["lubrication"] = {"model": model}
+    scene = scene_from_dict(doc, "tiny.toml")
+    study = contact_study(scene)
+    one = PositionCycle(study, 1)
+    split = PositionCycle(study, 1, comm=comm)
+    ok = split.slab.nx_local == (14 if comm.rank == 0 else 13) and split.half_spaces.distributed
+    ok = ok and split.level == one.level == ("mixed" if model == "auto" else "dry")
+    worst, iters = 0.0, []
+    # a mixed step adds up the iterations of its ~5–10 dry solves (load-fraction scan and
+    # root search), each of which may stop one iteration apart at round-off: measured ±2
+    slack = 1 if model == "dry" else 3
+    warm1, warm2 = {}, {}
+    pits = np.zeros(one.grid.shape, bool), np.zeros(one.grid.shape, bool)
+    pits[0][5:9, 3:7] = pits[1][20:22, 10:20] = True
+    for sweep in range(3):
+        if sweep == 2:      # unloaded pits (life.pit_contact = "unloaded"), whole maps
+            for c in (one, split):
+                c.set_surfaces(c.surfaces, pits)
+        p1 = p2 = None
+        for j in range(one.steps):
+            a = one.solve_step(j, p1, warm1.setdefault(j, {}))
+            b = split.solve_step(j, p2, warm2.setdefault(j, {}))
+            p1, p2 = a.pressure, b.pressure
+            ok = ok and b.pressure.shape == a.pressure.shape == one.grid.shape
+            worst = max(worst, rel(b.pressure, a.pressure), rel(b.clearance, a.clearance),
+                        abs(b.phi - a.phi))
+            ok = ok and np.array_equal(b.solid, a.solid)
+            ok = ok and abs(b.iterations - a.iterations) <= slack
+            iters.append((a.iterations, b.iterations))
+            # the whole-window fields are the same on every rank, bit for bit
+            mine = (b.pressure, b.clearance, b.traction1)
+            ok = ok and all(np.array_equal(x, y) for theirs in comm.allgather(mine)
+                            for x, y in zip(mine, theirs, strict=True))
+    ok = ok and worst <= RTOL and any(a > 0 for a, _ in iters)
+    if comm.rank == 0:
+        print(f"tiny disc ({model}): iterations {iters}; largest relative difference "
+              f"{worst:.2e}")
+    assert agree(comm, ok)
+
+
+@pytest.mark.mpi(min_size=2)
+def test_a_small_window_solves_its_contact_on_every_rank_alike_as_one_rank(monkeypatch):
+    """Below contact_split_min_cells the group's ranks each solve the whole window: the
+    one-rank numbers, bit for bit, and no communication in the solver."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    monkeypatch.delenv("MICROPIT_CONTACT_SPLIT_MIN_CELLS", raising=False)
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["lubrication"] = {"model": "dry"}
+    study = contact_study(scene_from_dict(doc, "tiny.toml"))
+    one = PositionCycle(study, 1)
+    split = PositionCycle(study, 1, comm=comm)
+    ok = split.grid.nx * split.grid.ny < contact_split_min_cells()
+    ok = ok and split.slab.comm.size == 2 and not split.half_spaces.distributed
+    p1 = p2 = None
+    for j in range(one.steps):
+        a, b = one.solve_step(j, p1), split.solve_step(j, p2)
+        p1, p2 = a.pressure, b.pressure
+        ok = ok and a.iterations == b.iterations and all(
+            np.array_equal(x, y) for x, y in ((a.pressure, b.pressure),
+                                              (a.clearance, b.clearance)))
+    assert agree(comm, ok)
