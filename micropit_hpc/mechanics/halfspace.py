@@ -52,7 +52,7 @@ VOIGT = ("xx", "yy", "zz", "yz", "xz", "xy")
 #: The memory budget of one chunk of a body's stress history on one rank [bytes]
 #: (:func:`history_chunk_layers`): the load cycle streams the history through depth in chunks of
 #: layers no larger than this (one layer at least), docs/performance.md "Streamed stresses".
-STRESS_CHUNK_BYTES = 256 * 2 ** 20
+STRESS_CHUNK_BYTES = 64 * 2 ** 20
 
 
 def history_chunk_layers(n_layers: int, steps: int, points: int,
