@@ -128,7 +128,7 @@ def run_micropit(n: int) -> dict:
         t0 = time.perf_counter()
         out = subprocess.run([sys.executable, "-m", "micropit_hpc", "run", str(path), "--out",
                               str(Path(tmp) / "out")], capture_output=True, text=True,
-                             check=False)
+                             check=False, cwd=tmp)   # not the checkout: PYTHONPATH decides
         wall = time.perf_counter() - t0
     if out.returncode != 0:
         raise SystemExit(f"micropit run {n}² failed:\n{out.stderr}")

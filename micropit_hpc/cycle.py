@@ -381,11 +381,13 @@ class PositionCycle:
 
     def chunk_layers(self, steps: int | None = None) -> int:
         """Depth layers per chunk of the streamed stress history (:meth:`evaluate`): as many as
-        keep one chunk's history, steps × 6 × layers × this rank's points float64, within
-        :attr:`stress_chunk_bytes`, at least one
+        keep one chunk's history, steps × 6 × layers × the points of the group's largest slab
+        float64, within :attr:`stress_chunk_bytes`, at least one
         (:func:`~micropit_hpc.mechanics.halfspace.history_chunk_layers`)."""
         m = self.steps if steps is None else int(steps)
-        return history_chunk_layers(self.z.size, m, self.slab.nx_local * self.grid.ny,
+        # the largest slab of the group: every rank takes the same chunks, so that the
+        # collective inverse transforms of the layers run in the same order on all of them
+        return history_chunk_layers(self.z.size, m, max(self.slab.counts) * self.grid.ny,
                                     self.stress_chunk_bytes)
 
     def stress_history(self, spectra, macro, body: int, layers: slice,
