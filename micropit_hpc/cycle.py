@@ -21,6 +21,7 @@ docs/model.md §5).
 
 from __future__ import annotations
 
+import inspect
 import math
 import time
 from collections.abc import Callable
@@ -53,6 +54,10 @@ from micropit_hpc.surfaces import (
 )
 from micropit_hpc.surfaces.bodies import body_surface
 from micropit_hpc.wear import WearRate, archard_wear
+
+#: Dang Van's batch of points (its ``chunk``): the streamed history feeds it the same batches
+#: as one call on the whole history (:meth:`PositionCycle._streamed_dang_van`).
+_DV_CHUNK = int(inspect.signature(dang_van).parameters["chunk"].default or 32768)
 
 __all__ = ["BodyCycle", "CycleResult", "PositionCycle", "StepFields", "micro_cycles",
            "rainflow_steps"]
@@ -440,39 +445,62 @@ class PositionCycle:
         (docs/performance.md "Streamed stresses"): the spectra of every step's pressure and
         traction in the body's frame (forward FFTs) and the macro field are made once and kept
         (O(N² m)); then, chunk by chunk of :meth:`chunk_layers` layers, the chunk's history
-        (:meth:`stress_history`, written into one reused buffer), its Dang Van and, with
-        ``rainflow``, its damage rates by rainflow counting go into the full arrays. Every
-        material point's path is the one the whole-depth history gives it, and Dang Van and
-        the counting are per point, so the results equal those of one chunk bitwise. Returns
+        (:meth:`stress_history`, written into one reused buffer) goes through Dang Van.
+
+        Dang Van is fed the very point batches that one call on the whole (m, 6, N_z, rows,
+        ny) history makes (its ``chunk`` of consecutive points in (z, x, y) order; a batch that
+        straddles two layer chunks is completed in a small carry buffer): its iteration
+        compacts converged points away, and the rounding of its sums can depend on how many
+        stay, so other batches could move τ_DV by an ulp. With the same batches the results
+        equal the whole history's bit for bit. With ``rainflow`` the series τ̂ + α σ_H of every
+        point is kept (m × N_z × rows × ny) and counted at the end as before. Returns
         (τ_DV, rate, low); rate and low are None without ``rainflow``."""
         sn, nz = self.woehler, self.z.size
         with event("stresses"):
             spectra = [self.traction_spectra(f, body) for f in fields]
             macro = [self.macro_stress(f, body) for f in fields]
         m, rows, ny = len(fields), self.slab.nx_local, self.grid.ny
-        shape = self.slab.local_shape
-        tau = np.empty(shape)
-        rate = np.empty(shape) if rainflow else None
-        low = np.empty(shape) if rainflow else None
+        plane = rows * ny
+        n = nz * plane
+        tau = np.empty(n)
+        series = np.empty((m, n)) if rainflow else None
         size = self.chunk_layers(m)
-        buf = np.empty(m * 6 * size * rows * ny)
+        batch = _DV_CHUNK
+        buf = np.empty(m * 6 * size * plane)
+        carry = np.empty((m, 6, min(batch, n)))     # the start of a straddling batch
+        lo, kept = 0, 0     # next batch starts at point lo; carry holds points lo … lo + kept
         for k0 in range(0, nz, size):
             k1 = min(nz, k0 + size)
-            chunk = slice(k0, k1)
-            hist = buf[:m * 6 * (k1 - k0) * rows * ny].reshape(m, 6, k1 - k0, rows, ny)
+            hist = buf[:m * 6 * (k1 - k0) * plane].reshape(m, 6, k1 - k0, rows, ny)
             with event("stresses"):
-                self.stress_history(spectra, macro, body, chunk, out=hist)
-            with event("dang_van"):
-                dv = dang_van(hist, alpha=self.alpha_dv, keep_series=rainflow)
-            tau[chunk] = dv.tau_dv
-            if rainflow:
-                with event("damage_rate"):
-                    series = dv.series.reshape(m, -1)
-                    rate[chunk] = rainflow_damage(series, sn.damage).reshape(dv.tau_dv.shape)
-                    low[chunk] = rainflow_damage(series, sn.low_damage).reshape(
-                        dv.tau_dv.shape)
-            del dv
-        return tau, rate, low
+                self.stress_history(spectra, macro, body, slice(k0, k1), out=hist)
+            flat = hist.reshape(m, 6, -1)                # points k0·plane … k1·plane
+            start, end = k0 * plane, k1 * plane
+            while lo < n:
+                hi = min(lo + batch, n)
+                if hi > end:                             # finish it with the next chunk
+                    a = max(lo, start)
+                    carry[:, :, a - lo:end - lo] = flat[:, :, a - start:]
+                    kept = end - lo
+                    break
+                if lo < start:
+                    carry[:, :, kept:hi - lo] = flat[:, :, :hi - start]
+                    part = carry[:, :, :hi - lo]
+                else:
+                    part = flat[:, :, lo - start:hi - start]
+                with event("dang_van"):
+                    dv = dang_van(part, alpha=self.alpha_dv, chunk=batch, keep_series=rainflow)
+                tau[lo:hi] = dv.tau_dv
+                if rainflow:
+                    series[:, lo:hi] = dv.series
+                lo, kept = hi, 0
+        shape = self.slab.local_shape
+        rate = low = None
+        if rainflow:
+            with event("damage_rate"):
+                rate = rainflow_damage(series, sn.damage).reshape(shape)
+                low = rainflow_damage(series, sn.low_damage).reshape(shape)
+        return tau.reshape(shape), rate, low
 
     # ---- the load cycle ----------------------------------------------------------------------
     def evaluate(self, surfaces: tuple[Topography, Topography],

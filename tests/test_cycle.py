@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 from conftest import ROOT, SCENES
 
+from micropit_hpc import cycle as cycle_module
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.errors import MicropitError, SceneError
@@ -122,7 +123,7 @@ def test_history_chunk_layers_follows_the_budget():
 
 
 @pytest.mark.parametrize("counting", ["sliding", "rainflow"])
-def test_streamed_stresses_equal_the_whole_history_bitwise(tmp_path, counting):
+def test_streamed_stresses_equal_the_whole_history_bitwise(tmp_path, counting, monkeypatch):
     """evaluate streams the stress history through depth in chunks of layers (Dang Van and the
     rainflow counting per chunk): τ_DV and the damage rates equal those of the whole-depth
     history stacked from :meth:`PositionCycle.stresses` bit for bit, for any chunk size
@@ -155,6 +156,15 @@ def test_streamed_stresses_equal_the_whole_history_bitwise(tmp_path, counting):
         macro = [cyc.macro_stress(f, body) for f in fields]
         assert np.array_equal(cyc.stress_history(spectra, macro, body, slice(1, 3)),
                               hist[:, :, 1:3])
+    # Dang Van gets the whole history's batches of points, also when they straddle chunks
+    # (batches of 700 points against layers of 1024, one or two layers per chunk)
+    monkeypatch.setattr(cycle_module, "_DV_CHUNK", 700)
+    hist = np.stack([cyc.stresses(f, 1) for f in fields])
+    dv = dang_van(hist, alpha=cyc.alpha_dv, chunk=700)
+    for budget in (1.0, 2.5 * 48 * m * points):
+        cyc.stress_chunk_bytes = budget
+        assert np.array_equal(cyc._streamed_dang_van(fields, 1, False)[0], dv.tau_dv)
+    monkeypatch.undo()
     # and the whole cycle: one chunk against one layer at a time
     cyc.stress_chunk_bytes = math.inf
     a = cyc.evaluate(cyc.surfaces)
