@@ -21,6 +21,7 @@ docs/model.md §5).
 
 from __future__ import annotations
 
+import inspect
 import math
 import os
 import time
@@ -37,7 +38,11 @@ from micropit_hpc.fatigue.rainflow import rainflow_damage
 from micropit_hpc.fatigue.sn import WoehlerLine
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
 from micropit_hpc.lubrication.mixed import MixedLubrication, restore_mean
-from micropit_hpc.mechanics.halfspace import HalfSpaceStress
+from micropit_hpc.mechanics.halfspace import (
+    STRESS_CHUNK_BYTES,
+    HalfSpaceStress,
+    history_chunk_layers,
+)
 from micropit_hpc.mechanics.hertz_field import EllipticalContactField, line_contact_stress
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.parallel.petsc import event
@@ -49,6 +54,10 @@ from micropit_hpc.surfaces import (
 )
 from micropit_hpc.surfaces.bodies import body_surface
 from micropit_hpc.wear import WearRate, archard_wear
+
+#: Dang Van's batch of points (its ``chunk``): the streamed history feeds it the same batches
+#: as one call on the whole history (:meth:`PositionCycle._streamed_dang_van`).
+_DV_CHUNK = int(inspect.signature(dang_van).parameters["chunk"].default or 32768)
 
 __all__ = ["BodyCycle", "CycleResult", "PositionCycle", "StepFields", "contact_split_min_cells",
            "micro_cycles", "rainflow_steps"]
@@ -172,6 +181,11 @@ class PositionCycle:
     ``[fatigue]`` (the S–N line :attr:`woehler`, α_DV, counting, macro samples, peak spacing
     cut) and ``wear.solid_factor`` for :meth:`evaluate`.
     """
+
+    #: Bytes that one chunk of a body's stress history may take on this rank: :meth:`evaluate`
+    #: streams the history through depth in chunks of :meth:`chunk_layers` layers (an instance
+    #: may set its own; ``math.inf``: the whole depth in one chunk).
+    stress_chunk_bytes: float = STRESS_CHUNK_BYTES
 
     def __init__(self, study: ContactStudy, position: int,
                  surfaces: tuple[Topography, Topography] | None = None,
@@ -388,20 +402,57 @@ class PositionCycle:
         kernels, App. A.1) of the pressure and traction moved into the material frame
         (:meth:`material_tractions`), less their means, plus the macro field at the window
         centre (:meth:`macro_stress`). At z = 0: σ_zz = −p and σ_xz = −q of the
-        material-frame maps, to round-off."""
-        g = self.grid
-        b_body = self.scene.body1 if body == 1 else self.scene.body2
-        slab = self.slab
-        micro = self._micro.get(body)
-        if micro is None:
-            micro = self._micro[body] = HalfSpaceStress(g, self.z, b_body.nu, slab)
-        p, q = self.material_tractions(fields, body)
-        rows = slab.rows
-        P_hat = slab.forward(-p[rows])
-        T_hat = slab.forward(-q[rows])
-        sigma = micro.stresses(P_hat, T_hat)
+        material-frame maps, to round-off. The whole depth at once; :meth:`evaluate` streams
+        the layers instead (:meth:`stress_history`), with the same numbers."""
+        sigma = self._micro_field(body).stresses(*self.traction_spectra(fields, body))
         sigma += self.macro_stress(fields, body)
         return sigma
+
+    def _micro_field(self, body: int) -> HalfSpaceStress:
+        """The micro field of ``body`` on this rank's slab (built once per body)."""
+        micro = self._micro.get(body)
+        if micro is None:
+            nu = (self.scene.body1 if body == 1 else self.scene.body2).nu
+            micro = self._micro[body] = HalfSpaceStress(self.grid, self.z, nu, self.slab)
+        return micro
+
+    def traction_spectra(self, fields: StepFields, body: int) -> tuple[np.ndarray, np.ndarray]:
+        """Half spectra (P̂, T̂x) of σ_zz(0) = −p and σ_xz(0) = −q_x in the material frame of
+        ``body`` at the step of ``fields`` (:meth:`material_tractions`), this rank's columns
+        ``slab.cols``; fresh arrays. Collective (the forward FFTs)."""
+        p, q = self.material_tractions(fields, body)
+        rows = self.slab.rows
+        return self.slab.forward(-p[rows]), self.slab.forward(-q[rows])
+
+    def chunk_layers(self, steps: int | None = None) -> int:
+        """Depth layers per chunk of the streamed stress history (:meth:`evaluate`): as many as
+        keep one chunk's history, steps × 6 × layers × the points of the group's largest slab
+        float64, within :attr:`stress_chunk_bytes`, at least one
+        (:func:`~micropit_hpc.mechanics.halfspace.history_chunk_layers`)."""
+        m = self.steps if steps is None else int(steps)
+        # the largest slab of the group: every rank takes the same chunks, so that the
+        # collective inverse transforms of the layers run in the same order on all of them
+        return history_chunk_layers(self.z.size, m, max(self.slab.counts) * self.grid.ny,
+                                    self.stress_chunk_bytes)
+
+    def stress_history(self, spectra, macro, body: int, layers: slice,
+                       out: np.ndarray | None = None) -> np.ndarray:
+        """The stress history of ``body`` on the depth layers ``layers`` (a slice of :attr:`z`),
+        shape (m, 6, n_layers, rows of the slab, ny): at each step j the micro field of the
+        kept spectra ``spectra[j]`` (:meth:`traction_spectra`) on those layers plus the macro
+        field ``macro[j]`` (:meth:`macro_stress`, all layers) on them; the same numbers as
+        :meth:`stresses` on those layers. ``out``: an optional float64 array of that shape.
+        Collective (the inverse FFTs)."""
+        micro = self._micro_field(body)
+        k = range(self.z.size)[layers]
+        shape = (len(spectra), 6, len(k), self.slab.nx_local, self.grid.ny)
+        hist = np.empty(shape) if out is None else out
+        if hist.shape != shape:
+            raise ValueError(f"out has shape {hist.shape}, expected {shape}")
+        for j, ((P_hat, T_hat), mac) in enumerate(zip(spectra, macro, strict=True)):
+            micro.stresses(P_hat, T_hat, out=hist[j], layers=layers)
+            hist[j] += mac[:, layers]
+        return hist
 
     def _ellipse(self, body: int) -> EllipticalContactField:
         """The elliptical Hertz field of ``body`` (built once: it takes seconds)."""
@@ -428,6 +479,68 @@ class PositionCycle:
                                self.z[None, :, None], mu_signed)[:, :, :, None, :]
         sig = np.moveaxis(sig, 0, 1)
         return np.concatenate([sig, np.zeros((1, *sig.shape[1:]))])
+
+    def _streamed_dang_van(self, fields: list[StepFields], body: int, rainflow: bool):
+        """τ_DV (N_z, rows, ny) of ``body`` over the cycle of ``fields``, streamed through depth
+        (docs/performance.md "Streamed stresses"): the spectra of every step's pressure and
+        traction in the body's frame (forward FFTs) and the macro field are made once and kept
+        (O(N² m)); then, chunk by chunk of :meth:`chunk_layers` layers, the chunk's history
+        (:meth:`stress_history`, written into one reused buffer) goes through Dang Van.
+
+        Dang Van is fed the very point batches that one call on the whole (m, 6, N_z, rows,
+        ny) history makes (its ``chunk`` of consecutive points in (z, x, y) order; a batch that
+        straddles two layer chunks is completed in a small carry buffer): its iteration
+        compacts converged points away, and the rounding of its sums can depend on how many
+        stay, so other batches could move τ_DV by an ulp. With the same batches the results
+        equal the whole history's bit for bit. With ``rainflow`` the series τ̂ + α σ_H of every
+        point is kept (m × N_z × rows × ny) and counted at the end as before. Returns
+        (τ_DV, rate, low); rate and low are None without ``rainflow``."""
+        sn, nz = self.woehler, self.z.size
+        with event("stresses"):
+            spectra = [self.traction_spectra(f, body) for f in fields]
+            macro = [self.macro_stress(f, body) for f in fields]
+        m, rows, ny = len(fields), self.slab.nx_local, self.grid.ny
+        plane = rows * ny
+        n = nz * plane
+        tau = np.empty(n)
+        series = np.empty((m, n)) if rainflow else None
+        size = self.chunk_layers(m)
+        batch = _DV_CHUNK
+        buf = np.empty(m * 6 * size * plane)
+        carry = np.empty((m, 6, min(batch, n)))     # the start of a straddling batch
+        lo, kept = 0, 0     # next batch starts at point lo; carry holds points lo … lo + kept
+        for k0 in range(0, nz, size):
+            k1 = min(nz, k0 + size)
+            hist = buf[:m * 6 * (k1 - k0) * plane].reshape(m, 6, k1 - k0, rows, ny)
+            with event("stresses"):
+                self.stress_history(spectra, macro, body, slice(k0, k1), out=hist)
+            flat = hist.reshape(m, 6, -1)                # points k0·plane … k1·plane
+            start, end = k0 * plane, k1 * plane
+            while lo < n:
+                hi = min(lo + batch, n)
+                if hi > end:                             # finish it with the next chunk
+                    a = max(lo, start)
+                    carry[:, :, a - lo:end - lo] = flat[:, :, a - start:]
+                    kept = end - lo
+                    break
+                if lo < start:
+                    carry[:, :, kept:hi - lo] = flat[:, :, :hi - start]
+                    part = carry[:, :, :hi - lo]
+                else:
+                    part = flat[:, :, lo - start:hi - start]
+                with event("dang_van"):
+                    dv = dang_van(part, alpha=self.alpha_dv, chunk=batch, keep_series=rainflow)
+                tau[lo:hi] = dv.tau_dv
+                if rainflow:
+                    series[:, lo:hi] = dv.series
+                lo, kept = hi, 0
+        shape = self.slab.local_shape
+        rate = low = None
+        if rainflow:
+            with event("damage_rate"):
+                rate = rainflow_damage(series, sn.damage).reshape(shape)
+                low = rainflow_damage(series, sn.low_damage).reshape(shape)
+        return tau.reshape(shape), rate, low
 
     # ---- the load cycle ----------------------------------------------------------------------
     def evaluate(self, surfaces: tuple[Topography, Topography],
@@ -475,11 +588,6 @@ class PositionCycle:
         out = []
         rainflow = fat.counting == "rainflow"
         for body in (1, 2):
-            with event("stresses"):
-                hist = np.stack([self.stresses(f, body) for f in fields])  # (m, 6, Nz, nx, ny)
-            with event("dang_van"):
-                dv = dang_van(hist, alpha=self.alpha_dv, keep_series=rainflow)
-            del hist
             q = sum(float((f.traction1 if body == 1 else f.traction2).sum()) for f in fields)
             mu_signed = q / p_sum if p_sum > 0 else 0.0
             with event("dang_van_macro"):
@@ -488,15 +596,11 @@ class PositionCycle:
             tau_smooth = macro.tau_dv                                        # (Nz, 1, ny')
             lam_c = lam[2 - body]                                            # the counterface's
             n_mu = micro_cycles(self, body, lam_c)
-            with event("damage_rate"):
-                if rainflow:
-                    m = dv.series.shape[0]
-                    series = dv.series.reshape(m, -1)
-                    rate = rainflow_damage(series, sn.damage).reshape(dv.tau_dv.shape)
-                    low = rainflow_damage(series, sn.low_damage).reshape(dv.tau_dv.shape)
-                else:
-                    rate = sn.damage(tau_smooth) + n_mu * sn.damage(dv.tau_dv)
-                    low = sn.low_damage(tau_smooth) + n_mu * sn.low_damage(dv.tau_dv)
+            tau, rate, low = self._streamed_dang_van(fields, body, rainflow)
+            if not rainflow:
+                with event("damage_rate"):
+                    rate = sn.damage(tau_smooth) + n_mu * sn.damage(tau)
+                    low = sn.low_damage(tau_smooth) + n_mu * sn.low_damage(tau)
             own, other = ((self.scene.body1, self.scene.body2) if body == 1
                           else (self.scene.body2, self.scene.body1))
             with event("wear_rate"):
@@ -504,7 +608,7 @@ class PositionCycle:
                                     [self.slip(body, f.t) for f in fields], g.dx, c.u_s,
                                     own.hardness, other.hardness, self.k_lub,
                                     self.scene.wear.f_w, self.half_spaces.self_compliance)
-            out.append(BodyCycle(damage_rate=rate, wear=wear, tau_rough=dv.tau_dv,
+            out.append(BodyCycle(damage_rate=rate, wear=wear, tau_rough=tau,
                                  tau_smooth=tau_smooth, n_micro=n_mu, lam_c=lam_c,
                                  damage_low=np.broadcast_to(low, rate.shape)))
         return CycleResult(bodies=tuple(out), phi=phi, solid_fraction=solid, steps=self.steps,

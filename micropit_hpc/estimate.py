@@ -2,12 +2,21 @@
 the estimate, when it exceeds the memory this node gives the job (docs/jobs.md).
 
 The model is fitted to peak resident sizes and block times measured with one item on one rank
-(tiny disc scene, window.steps = 8; the sizes are in docs/jobs.md, and tests/test_estimate.py
-re-measures the memory side): a process of the stack takes about :data:`PROCESS_MIB`; one block
-of one item needs a transient :data:`TRANSIENT_B_PER_POINT` + :data:`STRESS_B_PER_POINT_LAYER_STEP`
-× layers × steps bytes per grid point (stress histories over the cycle, both bodies), split over
-the ranks of the item; every item a rank holds keeps :data:`ITEM_B_PER_POINT` + 32 × layers
-bytes per point (its solvers, surfaces, damage); world rank 0 gathers every item's final maps.
+(tiny disc scene; tests/test_estimate.py checks the memory side's shape). A process of the stack
+takes about :data:`PROCESS_MIB`. One block of one item needs a transient :data:`CYCLE_MIB`
+(Dang Van's point chunks, the contact solver's caches) plus, per grid point,
+:data:`TRANSIENT_B_PER_POINT` + :data:`STEP_B_PER_POINT` × steps bytes (the steps' contact
+fields and traction spectra) + :data:`STRESS_B_PER_POINT_LAYER_STEP` × chunk × steps (the
+stress history of one chunk of depth layers, 48 of those bytes the history itself: the load
+cycle streams the history through depth in chunks of
+:func:`~micropit_hpc.mechanics.halfspace.history_chunk_layers` layers, at most
+:data:`~micropit_hpc.mechanics.halfspace.STRESS_CHUNK_BYTES` per rank or one layer,
+docs/performance.md "Streamed stresses"); the per-point part is split over the ranks of the
+item. Every item a rank holds keeps :data:`ITEM_B_PER_POINT` + 32 × layers bytes per point (its
+solvers, surfaces, damage); world rank 0 gathers every item's final maps. Refitted for the
+streamed stresses on whole runs of the tiny disc scene at 15 layers and 20 steps
+(benchmarks/bench_memory.py --run): the estimate is 2–5 % above the measured peak at 128² and
+256²; take it as ±25 % elsewhere (below about 64² the fixed CYCLE_MIB makes it an overestimate).
 The time is an order of magnitude only (the contact solver's iterations and the adaptive splits
 of a block vary with Λ and wear): about :data:`SECONDS_PER_POINT_LAYER_STEP` s per grid point,
 layer + 4, and time step."""
@@ -19,11 +28,14 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+from micropit_hpc.mechanics.halfspace import history_chunk_layers
 from micropit_hpc.parallel.share import raise_agreed
 
 PROCESS_MIB = 100.0
+CYCLE_MIB = 180.0
 TRANSIENT_B_PER_POINT = 1400.0
-STRESS_B_PER_POINT_LAYER_STEP = 115.0
+STEP_B_PER_POINT = 80.0
+STRESS_B_PER_POINT_LAYER_STEP = 60.0
 ITEM_B_PER_POINT = 1100.0
 SECONDS_PER_POINT_LAYER_STEP = 3.6e-6
 GIB = 2.0 ** 30
@@ -99,8 +111,10 @@ def estimate(scene, size: int, ranks_per_item: int, positions, blocks: int,
     groups = max(1, size // max(1, ranks_per_item))
     per_group = math.ceil(items / groups)
     r = max(1, ranks_per_item)
-    transient = points * (TRANSIENT_B_PER_POINT
-                          + STRESS_B_PER_POINT_LAYER_STEP * layers * w.steps) / r
+    chunk = history_chunk_layers(layers, w.steps, math.ceil(points / r))
+    transient = CYCLE_MIB * 2 ** 20 + points * (
+        TRANSIENT_B_PER_POINT + STEP_B_PER_POINT * w.steps
+        + STRESS_B_PER_POINT_LAYER_STEP * chunk * w.steps) / r
     held = per_group * points * (ITEM_B_PER_POINT + 32.0 * layers) / r
     per_rank = PROCESS_MIB * 2 ** 20 + transient + held
     maps = items * points * 8.0 * 2 * (layers + 6)   # every item's final maps on rank 0

@@ -10,9 +10,13 @@ import numpy as np
 import pytest
 from conftest import ROOT, SCENES
 
+from micropit_hpc import cycle as cycle_module
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.errors import MicropitError, SceneError
+from micropit_hpc.fatigue.dangvan import dang_van
+from micropit_hpc.fatigue.rainflow import rainflow_damage
+from micropit_hpc.mechanics.halfspace import history_chunk_layers
 from micropit_hpc.mechanics.hertz_field import line_contact_stress
 from micropit_hpc.plan import reference_half_width
 from micropit_hpc.scene import load_scene
@@ -105,6 +109,71 @@ def test_same_seed_same_step_other_seed_differs(tmp_path):
     other = _scene(tmp_path, extra=SMALL.replace("steps = 4", "steps = 4\nseed = 2"))
     c = PositionCycle(contact_study(load_scene(other)), 4).solve_step(1)
     assert not np.array_equal(a.pressure, c.pressure)
+
+
+def test_history_chunk_layers_follows_the_budget():
+    # one layer of 20 steps at 64²: 20 × 6 × 8 × 4096 B = 3.75 MiB
+    layer = 48.0 * 20 * 64 * 64
+    assert history_chunk_layers(15, 20, 64 * 64, math.inf) == 15
+    assert history_chunk_layers(15, 20, 64 * 64, 15 * layer) == 15
+    assert history_chunk_layers(15, 20, 64 * 64, 4 * layer) == 4       # 4, 4, 4, 3
+    assert history_chunk_layers(15, 20, 64 * 64, 7 * layer) == 5       # 3 chunks of 5
+    assert history_chunk_layers(15, 20, 64 * 64, 0.5 * layer) == 1     # never less than one
+    assert history_chunk_layers(1, 20, 64 * 64, 0.0) == 1
+
+
+@pytest.mark.parametrize("counting", ["sliding", "rainflow"])
+def test_streamed_stresses_equal_the_whole_history_bitwise(tmp_path, counting, monkeypatch):
+    """evaluate streams the stress history through depth in chunks of layers (Dang Van and the
+    rainflow counting per chunk): τ_DV and the damage rates equal those of the whole-depth
+    history stacked from :meth:`PositionCycle.stresses` bit for bit, for any chunk size
+    (here 5 layers in chunks of 2, 2, 1, and all in one)."""
+    extra = SMALL.replace("layers = 4", "layers = 5") + f'\n[fatigue]\ncounting = "{counting}"\n'
+    cyc = PositionCycle(contact_study(load_scene(_scene(tmp_path, extra=extra))), 3)
+    fields, p = [], None
+    for j in range(cyc.steps):
+        fields.append(cyc.solve_step(j, p))
+        p = fields[-1].pressure
+    rainflow = counting == "rainflow"
+    sn = cyc.woehler
+    m, points = cyc.steps, 32 * 32
+    for body in (1, 2):
+        hist = np.stack([cyc.stresses(f, body) for f in fields])
+        dv = dang_van(hist, alpha=cyc.alpha_dv, keep_series=rainflow)
+        for budget, size in ((math.inf, 5), (2.5 * 48 * m * points, 2), (1.0, 1)):
+            cyc.stress_chunk_bytes = budget
+            assert cyc.chunk_layers() == size
+            tau, rate, low = cyc._streamed_dang_van(fields, body, rainflow)
+            assert np.array_equal(tau, dv.tau_dv)
+            if rainflow:
+                series = dv.series.reshape(m, -1)
+                assert np.array_equal(rate.ravel(), rainflow_damage(series, sn.damage))
+                assert np.array_equal(low.ravel(), rainflow_damage(series, sn.low_damage))
+            else:
+                assert rate is None and low is None
+        # the history of a chunk is the whole one's on those layers
+        spectra = [cyc.traction_spectra(f, body) for f in fields]
+        macro = [cyc.macro_stress(f, body) for f in fields]
+        assert np.array_equal(cyc.stress_history(spectra, macro, body, slice(1, 3)),
+                              hist[:, :, 1:3])
+    # Dang Van gets the whole history's batches of points, also when they straddle chunks
+    # (batches of 700 points against layers of 1024, one or two layers per chunk)
+    monkeypatch.setattr(cycle_module, "_DV_CHUNK", 700)
+    hist = np.stack([cyc.stresses(f, 1) for f in fields])
+    dv = dang_van(hist, alpha=cyc.alpha_dv, chunk=700)
+    for budget in (1.0, 2.5 * 48 * m * points):
+        cyc.stress_chunk_bytes = budget
+        assert np.array_equal(cyc._streamed_dang_van(fields, 1, False)[0], dv.tau_dv)
+    monkeypatch.undo()
+    # and the whole cycle: one chunk against one layer at a time
+    cyc.stress_chunk_bytes = math.inf
+    a = cyc.evaluate(cyc.surfaces)
+    cyc.stress_chunk_bytes = 1.0
+    b = cyc.evaluate(cyc.surfaces)
+    for x, y in zip(a.bodies, b.bodies, strict=True):
+        assert np.array_equal(x.tau_rough, y.tau_rough)
+        assert np.array_equal(x.damage_rate, y.damage_rate)
+        assert np.array_equal(x.damage_low, y.damage_low)
 
 
 def _micropit(*args):

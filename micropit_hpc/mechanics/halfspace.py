@@ -37,14 +37,35 @@ batched transforms of 6 planes through one cached pyFFTW plan (``rfft_plan(shape
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from micropit_hpc.spectral import Grid
 
-__all__ = ["VOIGT", "HalfSpaceStress", "depth_layers"]
+__all__ = ["STRESS_CHUNK_BYTES", "VOIGT", "HalfSpaceStress", "depth_layers",
+           "history_chunk_layers"]
 
 #: Voigt order of the stress components in every (6, ...) stress block.
 VOIGT = ("xx", "yy", "zz", "yz", "xz", "xy")
+
+#: The memory budget of one chunk of a body's stress history on one rank [bytes]
+#: (:func:`history_chunk_layers`): the load cycle streams the history through depth in chunks of
+#: layers no larger than this (one layer at least), docs/performance.md "Streamed stresses".
+STRESS_CHUNK_BYTES = 64 * 2 ** 20
+
+
+def history_chunk_layers(n_layers: int, steps: int, points: int,
+                         budget: float = STRESS_CHUNK_BYTES) -> int:
+    """Depth layers per chunk of a stress history of ``steps`` time steps on ``points`` grid
+    points (this rank's): the most whose history, steps × 6 × 8 bytes per point and layer, fits
+    in ``budget`` bytes, at least 1 and at most ``n_layers``, then evened out over the chunks
+    that number needs (15 layers at 4 per chunk: 4 chunks of 4, 4, 4, 3)."""
+    n_layers = int(n_layers)
+    per_layer = 48.0 * max(1, int(steps)) * max(1, int(points))
+    fit = max(1, min(n_layers, int(budget // per_layer) if math.isfinite(budget) else n_layers))
+    chunks = -(-n_layers // fit)
+    return -(-n_layers // chunks)
 
 
 def depth_layers(n_layers: int, z_max: float, spacing: str = "quadratic") -> np.ndarray:

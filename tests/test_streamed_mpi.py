@@ -1,0 +1,56 @@
+"""The streamed stress history on a slab of several ranks (docs/performance.md "Streamed
+stresses"): every rank takes the same chunks of layers, also when the slabs differ in size, and
+τ_DV equals the stacked whole-depth history on the slab bitwise and the one-rank result on its
+rows to round-off (the distributed transforms sum in another order).
+
+Run under ``mpirun -n 2 ... -m pytest --with-mpi -m mpi``. Each verdict is allgathered before it
+is asserted, so a failure on one rank fails every rank instead of hanging the other.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from test_cycle import SMALL, _scene
+
+from micropit_hpc.conditions import contact_study
+from micropit_hpc.cycle import PositionCycle
+from micropit_hpc.fatigue.dangvan import dang_van
+from micropit_hpc.scene import load_scene
+
+
+def all_ranks_agree(comm, ok: bool) -> bool:
+    return all(comm.allgather(bool(ok)))
+
+
+@pytest.mark.mpi(min_size=2)
+def test_streamed_stresses_on_uneven_slabs(tmp_path):
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    extra = SMALL.replace("n = 32", "n = 33").replace("layers = 4", "layers = 5")
+    study = contact_study(load_scene(_scene(tmp_path, extra=extra)))
+    cyc = PositionCycle(study, 3, comm=comm)
+    counts = cyc.slab.counts
+    m, ny = cyc.steps, cyc.grid.ny
+    # two layers of the smallest slab's history: one of the largest; a per-rank rule would
+    # give the ranks different chunks (and mismatched collective transforms)
+    cyc.stress_chunk_bytes = 48.0 * m * ny * min(counts) * 2
+    sizes = comm.allgather(cyc.chunk_layers())
+    ok_sizes = len(set(sizes)) == 1 and (sizes[0] == 1 or min(counts) == max(counts))
+    fields, p = [], None
+    for j in range(m):
+        fields.append(cyc.solve_step(j, p))
+        p = fields[-1].pressure
+    one = PositionCycle(study, 3)
+    ok_slab, err = True, 0.0
+    for body in (1, 2):
+        tau, _, _ = cyc._streamed_dang_van(fields, body, False)
+        hist = np.stack([cyc.stresses(f, body) for f in fields])
+        ok_slab &= np.array_equal(tau, dang_van(hist, alpha=cyc.alpha_dv).tau_dv)
+        ref = dang_van(np.stack([one.stresses(f, body) for f in fields]),
+                       alpha=one.alpha_dv).tau_dv[:, cyc.slab.rows]
+        err = max(err, float(np.abs(tau - ref).max() / np.abs(ref).max()))
+    assert all_ranks_agree(comm, ok_sizes), (sizes, counts)
+    assert all_ranks_agree(comm, ok_slab)
+    assert all_ranks_agree(comm, err < 1e-12), err
