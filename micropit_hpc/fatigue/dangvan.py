@@ -384,9 +384,14 @@ def _dang_van_compiled(compiled, flat, pts, alpha, tol, keep_series, max_iter=20
     if n:
         compiled(np.ascontiguousarray(flat), float(alpha), float(tol), int(max_iter),
                  bool(keep_series), tau, rad, series, iters)
-    if (iters < 0).any():
-        raise RuntimeError(f"enclosing_ball: {int((iters < 0).sum())} point sets not converged "
-                           f"to tol = {tol:g} after {max_iter} iterations")
+    stuck = np.flatnonzero(iters < 0)
+    if stuck.size:   # the reference path for the few it left (it raises if they fail there too)
+        ref = dang_van(flat[:, :, stuck], alpha=alpha, tol=tol, keep_series=keep_series,
+                       kernel="numpy")
+        tau[stuck], rad[stuck] = ref.tau_dv, ref.radius
+        if keep_series:
+            series[:, stuck] = ref.series
+        iters[stuck] = ref.iterations
     return DangVan(tau_dv=tau.reshape(pts), radius=rad.reshape(pts),
                    iterations=int(iters.max(initial=0)),
                    series=series.reshape((m, *pts)) if keep_series else None)
