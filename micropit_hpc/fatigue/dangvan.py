@@ -189,6 +189,11 @@ def _support_correction(p, c, lam):
     return c, lam, blocked
 
 
+#: The relative duality gap (R² − ρ)/R² below which a set that has not met ``tol`` after
+#: ``max_iter`` iterations is accepted: the round-off floor of the gap on degenerate sets.
+ROUNDOFF_GAP = 1e-9
+
+
 def enclosing_ball(points: np.ndarray, tol: float = 1e-12, max_iter: int = 2000,
                    correct_every: int = 1) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Smallest ball enclosing each of n point sets.
@@ -201,7 +206,9 @@ def enclosing_ball(points: np.ndarray, tol: float = 1e-12, max_iter: int = 2000,
     jumps to the exact centre of the current support, so a set whose support has been found
     converges to round-off in one step (plain Frank–Wolfe zig-zags for thousands of iterations
     on real stress paths). A set stops when R(c)² − ρ ≤ tol·R(c)² (module docstring). Sets
-    still open after ``max_iter`` iterations raise RuntimeError.
+    still open after ``max_iter`` iterations are accepted if their gap is within
+    :data:`ROUNDOFF_GAP` of R(c)² (round-off stalls the gap of some degenerate sets above
+    ``tol``) and raise RuntimeError otherwise.
     """
     p = np.ascontiguousarray(points, dtype=float)
     d, m, n = p.shape
@@ -241,8 +248,17 @@ def enclosing_ball(points: np.ndarray, tol: float = 1e-12, max_iter: int = 2000,
             active = active[keep]
             cols = np.arange(active.size)
         if it == max_iter:
-            raise RuntimeError(f"enclosing_ball: {active.size} point sets not converged to "
-                               f"tol = {tol:g} after {max_iter} iterations")
+            # a set whose gap stalls within ROUNDOFF_GAP of R² is at its optimum to what
+            # double precision can certify (met on a symmetric path with repeated points,
+            # one in 5 M material points of a 512² cycle): accepted; anything else is not
+            stalled = R2 - rho <= ROUNDOFF_GAP * R2
+            centre[:, active[stalled]] = c[:, stalled]
+            radius2[active[stalled]] = R2[stalled]
+            iters[active[stalled]] = it
+            if not stalled.all():
+                raise RuntimeError(f"enclosing_ball: {int((~stalled).sum())} point sets not "
+                                   f"converged to tol = {tol:g} after {max_iter} iterations")
+            break
         # away vertex: the nearest point among those with positive weight
         away = np.argmin(np.where(lam > 0.0, r, np.inf), axis=0)
         r_a = r[away, cols]
