@@ -6,6 +6,7 @@ import sys
 
 import numpy as np
 import pytest
+from test_life import tiny_doc
 
 import micropit_hpc.fatigue
 from micropit_hpc.conditions import contact_study
@@ -115,20 +116,8 @@ def test_point_axes_and_constant_stress():
 
 
 def tiny_disc(slide_roll):
-    """The tiny disc scene of tests/test_life.py (32², 6 layers, 8 steps)."""
-    return scene_from_dict({
-        "study": {"name": "tiny"},
-        "disc": {"p0_GPa": 1.1, "u_mean_m_s": 1.1, "slide_roll": [slide_roll],
-                 "radius1_x_mm": 6.0, "radius2_x_mm": 27.075},
-        "body1": {"E_GPa": 210.0, "nu": 0.3, "Rq_um": 0.16,
-                  "surface": {"acf": "gaussian", "corr_x_um": 15.0}},
-        "body2": {"E_GPa": 210.0, "nu": 0.3, "Rq_um": 0.21,
-                  "surface": {"acf": "gaussian", "corr_x_um": 15.0}},
-        "lubricant": {"eta0_mPas": 3.1, "alpha_pv_1_per_GPa": 14.0, "eyring_stress_MPa": 5.0},
-        "film": {"hc_um": 0.037},
-        "window": {"n": 32, "steps": 8},
-        "stress": {"layers": 6},
-    }, "tiny.toml")
+    """The tiny disc scene of tests/test_life.py (32², 6 layers, 8 steps) at one slide-roll."""
+    return scene_from_dict(tiny_doc(slide_roll=(slide_roll,)), "tiny.toml")
 
 
 @needs_numba
