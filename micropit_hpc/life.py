@@ -44,8 +44,8 @@ pressure relief it causes) or ``explicit`` (n Δh_i, docs/model.md §4.6 as writ
 wear limit applies to the integrated depth.
 
 Units: SI (metres, pascals, cycles). No I/O. **Collective** over the work item's group (the
-ranks of ``cycle.slab.comm``): :func:`run_block` (the load-cycle evaluation: contact on the
-group root and broadcast, stresses on each rank's slab; the group-wide maxima and sums of the
+ranks of ``cycle.slab.comm``): :func:`run_block` (the load-cycle evaluation: contact and
+stresses on each rank's slab rows, docs/hpc.md §2; the group-wide maxima and sums of the
 record), :func:`apply_cycles` (the pits found on each rank's rows gathered to every rank,
 :meth:`Slab.allgather_rows <micropit_hpc.parallel.slab.Slab.allgather_rows>`) and
 :func:`sub_block_cycles` (the damage rise and new pits over the whole window, :meth:`Slab.max

@@ -3,8 +3,8 @@
 A work item is one (position × wear coefficient × roughness scale × patch) with a stable id
 (position-major, in that order). Ranks split into groups of ``ranks_per_item`` contiguous ranks
 (:mod:`micropit_hpc.parallel.groups`); every rank computes the same assignment and each group's
-ranks run its items together (:mod:`micropit_hpc.parallel.slab`: the group root solves the
-contact, every rank its x-slab of the stresses, Dang Van and damage). After every block the
+ranks run its items together (:mod:`micropit_hpc.parallel.slab`: every rank its x-slab of the
+contact, the stresses, Dang Van and damage). After every block the
 records are gathered on every rank. Results do not depend on the number of groups: an item's
 numbers come from its own seeds and its own block loop only (bitwise); with several ranks per
 item they equal one rank's to round-off.

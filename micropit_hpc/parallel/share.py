@@ -1,7 +1,7 @@
 """Root computes, every rank learns the answer or the error (docs/hpc.md §2, §4).
 
 Much of what a run decides is decided once, on the root of a communicator (scan the checkpoints,
-hash the measured maps, lock the output folder, solve a step's contact for a group), and every
+hash the measured maps, lock the output folder, name the run), and every
 rank must then go on with the same value, or leave through the same error at the same point:
 a rank that raised while the others wait in the broadcast would hang the job. The two helpers
 here are that pattern, written once.
