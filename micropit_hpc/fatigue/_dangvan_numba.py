@@ -29,7 +29,7 @@ import math
 import numpy as np
 from numba import njit
 
-from micropit_hpc.fatigue.dangvan import LODE_EDGE
+from micropit_hpc.fatigue.dangvan import LODE_EDGE, ROUNDOFF_GAP
 
 _R2, _R6 = math.sqrt(2.0), math.sqrt(6.0)
 _D = 5                  # dimension of the deviator space
@@ -485,7 +485,9 @@ def _ball(v, p, ref, c, lam, r, tol, max_iter, w_order, pts, w, new_w, D, M, rhs
         if R2 - rho <= tol * R2:
             it_done = it
             break
-        if it == max_iter:
+        if it == max_iter:      # accepted where the gap stalls at round-off, as the NumPy path
+            if R2 - rho <= ROUNDOFF_GAP * R2:
+                it_done = it
             break
         # away vertex: the nearest point among those with positive weight
         away = -1

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ALPHA_DV", "DEFAULT_KERNEL", "DangVan", "dang_van", "deviator_vectors",
+__all__ = ["ALPHA_DV", "CHUNK", "DEFAULT_KERNEL", "DangVan", "dang_van", "deviator_vectors",
            "enclosing_ball", "mesoscopic_shear", "numba_kernel"]
 
 #: α_DV = 3(1/√3 − ½): the Dang Van hydrostatic sensitivity (docs/model.md §4.3).
@@ -58,6 +58,9 @@ LODE_EDGE = 1e-6
 #: The kernel :func:`dang_van` uses when none is given: "auto" (compiled where Numba can be
 #: imported, else NumPy), "numba" or "numpy". A module-level switch for whole runs.
 DEFAULT_KERNEL = "auto"
+
+#: Points per batch of the NumPy path (bounds its temporaries; :func:`dang_van`'s ``chunk``).
+CHUNK = 32768
 
 _KERNELS = ("auto", "numba", "numpy")
 _numba_module = None            # the imported kernel module, False once the import failed
@@ -344,7 +347,7 @@ class DangVan:
 
 
 def dang_van(history: np.ndarray, alpha: float = ALPHA_DV, tol: float = 1e-12,
-             chunk: int = 32768, keep_series: bool = False,
+             chunk: int = CHUNK, keep_series: bool = False,
              kernel: str | None = None) -> DangVan:
     """τ_DV of every material point of a stress history (docs/model.md §4.3, [B11] eq. 8–10).
 
