@@ -21,7 +21,6 @@ docs/model.md §5).
 
 from __future__ import annotations
 
-import inspect
 import math
 import os
 import time
@@ -34,6 +33,7 @@ import numpy as np
 from micropit_hpc.conditions import ContactConditions, ContactStudy
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.fatigue.dangvan import ALPHA_DV, dang_van
+from micropit_hpc.fatigue.dangvan import CHUNK as DV_CHUNK
 from micropit_hpc.fatigue.rainflow import rainflow_damage
 from micropit_hpc.fatigue.sn import WoehlerLine
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
@@ -49,15 +49,9 @@ from micropit_hpc.parallel.petsc import event
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.plan import Window, choose_level
 from micropit_hpc.spectral import fourier_shift, rfft_plan, to_material_frame
-from micropit_hpc.surfaces import (
-    Topography,
-)
+from micropit_hpc.surfaces import Topography
 from micropit_hpc.surfaces.bodies import body_surface
 from micropit_hpc.wear import WearRate, archard_wear
-
-#: Dang Van's batch of points (its ``chunk``): the streamed history feeds it the same batches
-#: as one call on the whole history (:meth:`PositionCycle._streamed_dang_van`).
-_DV_CHUNK = int(inspect.signature(dang_van).parameters["chunk"].default or 32768)
 
 __all__ = ["BodyCycle", "CycleResult", "PositionCycle", "StepFields", "contact_split_min_cells",
            "micro_cycles", "rainflow_steps"]
@@ -81,8 +75,6 @@ def contact_split_min_cells() -> int:
     except ValueError:
         raise MicropitError(f"MICROPIT_CONTACT_SPLIT_MIN_CELLS={text!r}: give a whole number "
                             "of cells") from None
-
-
 
 
 @dataclass(frozen=True)
@@ -265,22 +257,6 @@ class PositionCycle:
         return (u - self.cond.u_mean) * t
 
     # ---- one step ----------------------------------------------------------------------------
-    def solve_step(self, step: int, p_init: np.ndarray | None = None,
-                   warm: dict | None = None) -> StepFields:
-        """Contact at time step ``step`` (docs/model.md §4.1); collective over the group: the
-        dry and mixed solvers run on every rank of the group over its x rows (:attr:`slab`;
-        distributed FFTs, sums in rank order, so every rank takes the same branches and
-        raises the same errors) and the solution's pressure and clearance are allgathered;
-        on a window of fewer than :func:`contact_split_min_cells` cells every rank solves
-        the whole window itself instead, without communication (the one-rank numbers). The
-        rest of the step (pits, friction, tractions) is done on the whole window by every
-        rank alike: every rank gets the whole-window fields. ``p_init``: a warm start (the
-        previous step's pressure, whole window); ``warm``: a dict the caller keeps for this
-        step from one load-cycle evaluation to the next, whose pressures (the last
-        evaluation's at this step; this rank's rows) take precedence as warm starts and are
-        updated (:meth:`MixedLubrication.solve`)."""
-        return self._solve_step(step, p_init, warm)
-
     # the contact of one step at each level (:data:`~micropit_hpc.plan.LEVELS`): (rough
     # clearance spectra at t, p̄, t, warm start, warm dict) → (pressure, clearance, φ, iterations)
     def _smooth_contact(self, r_now, p_mean: float, t: float, p_init, warm):
@@ -314,8 +290,20 @@ class PositionCycle:
     _CONTACT: ClassVar[dict[str, Callable]] = {"smooth": _smooth_contact, "dry": _dry_contact,
                                                "mixed": _mixed_contact}
 
-    def _solve_step(self, step: int, p_init: np.ndarray | None,
-                    warm: dict | None = None) -> StepFields:
+    def solve_step(self, step: int, p_init: np.ndarray | None = None,
+                   warm: dict | None = None) -> StepFields:
+        """Contact at time step ``step`` (docs/model.md §4.1); collective over the group: the
+        dry and mixed solvers run on every rank of the group over its x rows (:attr:`slab`;
+        distributed FFTs, sums in rank order, so every rank takes the same branches and
+        raises the same errors) and the solution's pressure and clearance are allgathered;
+        on a window of fewer than :func:`contact_split_min_cells` cells every rank solves
+        the whole window itself instead, without communication (the one-rank numbers). The
+        rest of the step (pits, friction, tractions) is done on the whole window by every
+        rank alike: every rank gets the whole-window fields. ``p_init``: a warm start (the
+        previous step's pressure, whole window); ``warm``: a dict the caller keeps for this
+        step from one load-cycle evaluation to the next, whose pressures (the last
+        evaluation's at this step; this rank's rows) take precedence as warm starts and are
+        updated (:meth:`MixedLubrication.solve`)."""
         g, c, lub = self.grid, self.cond, self.scene.lubrication
         t = self.time(step)
         x_c = self.centre(t)
@@ -505,7 +493,7 @@ class PositionCycle:
         tau = np.empty(n)
         series = np.empty((m, n)) if rainflow else None
         size = self.chunk_layers(m)
-        batch = _DV_CHUNK
+        batch = DV_CHUNK          # the batches of one call on the whole history
         buf = np.empty(m * 6 * size * plane)
         carry = np.empty((m, 6, min(batch, n)))     # the start of a straddling batch
         lo, kept = 0, 0     # next batch starts at point lo; carry holds points lo … lo + kept

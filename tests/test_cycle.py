@@ -158,7 +158,7 @@ def test_streamed_stresses_equal_the_whole_history_bitwise(tmp_path, counting, m
                               hist[:, :, 1:3])
     # Dang Van gets the whole history's batches of points, also when they straddle chunks
     # (batches of 700 points against layers of 1024, one or two layers per chunk)
-    monkeypatch.setattr(cycle_module, "_DV_CHUNK", 700)
+    monkeypatch.setattr(cycle_module, "DV_CHUNK", 700)
     hist = np.stack([cyc.stresses(f, 1) for f in fields])
     dv = dang_van(hist, alpha=cyc.alpha_dv, chunk=700)
     for budget in (1.0, 2.5 * 48 * m * points):

@@ -23,6 +23,7 @@ from functools import cached_property
 import numpy as np
 
 from micropit_hpc.errors import MicropitError
+from micropit_hpc.parallel.slab import Reductions
 from micropit_hpc.spectral import Grid, rfft_plan
 
 
@@ -117,33 +118,10 @@ class ElasticHalfSpaces:
         return stiff
 
 
-class _Group:
-    """The reductions of the contact solver over the ranks that share the window's rows
-    (:class:`~micropit_hpc.parallel.slab.Slab`): sums added in rank order, so every rank gets
-    the same numbers and takes the same branches. Without a slab, or on one rank, the values
-    pass unchanged: the solver then computes exactly what the serial code computes."""
-
-    def __init__(self, slab):
-        self.slab = None if slab is None or slab.comm.size == 1 else slab
-
-    def sums(self, *values):
-        return values if self.slab is None else self.slab.sums(values)
-
-    def max(self, value):
-        return value if self.slab is None else self.slab.max(value)
-
-    def min(self, value):
-        return value if self.slab is None else self.slab.min(value)
-
-    def any(self, mask: np.ndarray) -> bool:
-        local = bool(mask.any())
-        return local if self.slab is None else self.slab.max(float(local)) > 0.0
-
-
 def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float,
                    tol: float, max_iter: int, p: np.ndarray,
                    excluded: np.ndarray | None, N: int,
-                   group: _Group) -> tuple[np.ndarray, np.ndarray, int, float]:
+                   group: Reductions) -> tuple[np.ndarray, np.ndarray, int, float]:
     """Elastic load-controlled contact, Polonsky & Keer (1999) eqs. (13)–(22); points in
     ``excluded`` carry no pressure and may not enter. Returns (p, g − ḡ, iterations, ε).
     ``g0``, ``p``, ``excluded``: this rank's rows of the ``N`` points of the window; every sum
@@ -216,7 +194,7 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     """
     hs = half_spaces
     grid = hs.grid
-    group = _Group(hs.slab)
+    group = Reductions(hs.slab)
     rows = hs.rows
     g0 = np.asarray(gap0, dtype=float)
     local_shape = (rows.stop - rows.start, grid.ny)

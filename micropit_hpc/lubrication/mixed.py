@@ -44,7 +44,8 @@ import numpy as np
 
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.lubrication import rheology
-from micropit_hpc.lubrication.dry import ElasticHalfSpaces, _Group, solve_dry_contact
+from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
+from micropit_hpc.parallel.slab import Reductions
 from micropit_hpc.spectral import Grid, rfft_plan
 
 if TYPE_CHECKING:
@@ -227,7 +228,7 @@ class MixedLubrication:
         (``self.hs.rows``), and the solution is the whole window's on every rank."""
         prm, fft, g = self.spec, self._fft, self.grid
         hs, rows = self.hs, self.hs.rows
-        group = _Group(hs.slab)
+        group = Reductions(hs.slab)
         N = g.nx * g.ny
         r_tot = r_now[0] + r_now[1]
         r_tot = r_tot.copy()

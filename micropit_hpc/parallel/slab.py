@@ -31,7 +31,7 @@ import numpy as np
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.spectral import Grid, planner_flag, rfft_plan
 
-__all__ = ["Slab"]
+__all__ = ["Reductions", "Slab"]
 
 
 def _op_max():
@@ -146,9 +146,7 @@ class Slab:
     def sum(self, value: float) -> float:
         """The sum of ``value`` over the group, added in rank order (the same on every rank).
         Collective."""
-        if self.comm.size == 1:
-            return float(value)
-        return float(sum(self.comm.allgather(float(value))))
+        return float(self.sums((value,))[0])
 
     def min(self, value: float) -> float:
         """The smallest ``value`` over the group (exact). Collective."""
@@ -229,3 +227,27 @@ class Slab:
         for obj in (scatter, whole, natural, g):
             obj.destroy()
         return out
+
+
+class Reductions:
+    """The reductions of a solver that works either on a slab's rows or on the whole window
+    (``slab`` None, or a one-rank slab): over the slab's group they are the slab's (sums in
+    rank order, so every rank gets the same numbers and takes the same branches); otherwise
+    the values pass unchanged, and the solver computes exactly what the serial code computes
+    (:mod:`micropit_hpc.lubrication.dry`, :mod:`micropit_hpc.lubrication.mixed`)."""
+
+    def __init__(self, slab: Slab | None):
+        self.slab = None if slab is None or slab.comm.size == 1 else slab
+
+    def sums(self, *values):
+        return values if self.slab is None else self.slab.sums(values)
+
+    def max(self, value):
+        return value if self.slab is None else self.slab.max(value)
+
+    def min(self, value):
+        return value if self.slab is None else self.slab.min(value)
+
+    def any(self, mask: np.ndarray) -> bool:
+        local = bool(mask.any())
+        return local if self.slab is None else self.slab.max(float(local)) > 0.0
