@@ -78,15 +78,6 @@ def status_mib(key: str) -> float:
     return math.nan
 
 
-def git_commit() -> str:
-    try:
-        out = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True,
-                             text=True, check=True, cwd=Path(__file__).resolve().parent)
-        return out.stdout.strip()
-    except (OSError, subprocess.CalledProcessError):
-        return "unknown"
-
-
 def child(n: int, mode: str, contact: str) -> None:
     from micropit_hpc.conditions import contact_study
     from micropit_hpc.cycle import PositionCycle
@@ -168,8 +159,10 @@ def main(argv=None) -> None:
     if args.child:
         child(int(args.child[0]), args.child[1], args.child[2])
         return
-    print(f"# {datetime.date.today().isoformat()}, commit {git_commit()}, one rank, "
-          f"15 layers, 20 steps, tiny disc scene ({args.contact})")
+    from micropit_hpc import source_commit
+
+    print(f"# {datetime.date.today().isoformat()}, commit {source_commit() or 'unknown'}, "
+          f"one rank, 15 layers, 20 steps, tiny disc scene ({args.contact})")
     if args.run:
         print("| grid | peak RSS [MiB] | estimate [MiB] | estimate / peak | wall [s] |")
         print("|---|---|---|---|---|")

@@ -14,9 +14,9 @@ cycle streams the history through depth in chunks of
 docs/performance.md "Streamed stresses"); the per-point part is split over the ranks of the
 item. Every item a rank holds keeps :data:`ITEM_B_PER_POINT` + 32 × layers bytes per point (its
 solvers, surfaces, damage); world rank 0 gathers every item's final maps. Refitted for the
-streamed stresses on whole runs of the tiny disc scene at 15 layers and 20 steps
-(benchmarks/bench_memory.py --run): the estimate is 2–5 % above the measured peak at 128² and
-256²; take it as ±25 % elsewhere (below about 64² the fixed CYCLE_MIB makes it an overestimate).
+streamed stresses on whole runs of the tiny disc scene at 15 layers and 20 steps; how close it
+comes to the measured peaks, and the command that measures them, are in docs/performance.md
+"Streamed stresses" (below about 64² the fixed CYCLE_MIB makes it an overestimate).
 The time is an order of magnitude only (the contact solver's iterations and the adaptive splits
 of a block vary with Λ and wear): about :data:`SECONDS_PER_POINT_LAYER_STEP` s per grid point,
 layer + 4, and time step."""

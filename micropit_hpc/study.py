@@ -21,6 +21,7 @@ from micropit_hpc.conditions import ContactStudy, contact_study
 from micropit_hpc.cycle import PositionCycle, rainflow_steps
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.film import iso_lambda_gf
+from micropit_hpc.io.results import SUMMARY_UNITS
 from micropit_hpc.life import BlockRecord, LifeState, initial_state, run_block
 from micropit_hpc.plan import (
     Plan,
@@ -38,10 +39,9 @@ from micropit_hpc.surfaces.bodies import body_surface
 
 __all__ = ["SUMMARY_COLUMNS", "ItemRun", "Study", "summary_rows"]
 
-SUMMARY_COLUMNS = ("item", "position", "S", "p0_GPa", "Lambda", "k_lub_s", "body", "cycles",
-                   "Ap_pct", "max_damage", "wear_um", "Rq_um", "lambda_GF", "S_lambda",
-                   "slope_dq", "low_cycle_damage_pct", "low_cycle_pits_pct", "p_lim_area_pct",
-                   "deep_damage_ratio", "pit_depth_max_um", "flags")
+#: The columns of summary.csv, in order: the keys of their declaration with units
+#: (:data:`micropit_hpc.io.results.SUMMARY_UNITS`).
+SUMMARY_COLUMNS = tuple(SUMMARY_UNITS)
 
 
 class ItemRun:

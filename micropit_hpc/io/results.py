@@ -284,7 +284,8 @@ def write_xdmf(xdmf: Path, h5: Path, nx: int, ny: int, nz: int,
 
 # ---- reading a run back ------------------------------------------------------------------------
 
-#: Unit of each summary.csv column (engineering units, docs/outputs.md); "" for text.
+#: The columns of summary.csv in order, each with its unit (engineering units, docs/outputs.md;
+#: "" for text): the one declaration of the table (``study.SUMMARY_COLUMNS`` is its keys).
 SUMMARY_UNITS = {"item": "1", "position": "1", "S": "1", "p0_GPa": "GPa", "Lambda": "1",
                  "k_lub_s": "s", "body": "1", "cycles": "1", "Ap_pct": "%", "max_damage": "1",
                  "wear_um": "µm", "Rq_um": "µm", "lambda_GF": "1", "S_lambda": "1",
