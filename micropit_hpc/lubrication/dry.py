@@ -22,6 +22,7 @@ from functools import cached_property
 
 import numpy as np
 
+from micropit_hpc.compiled import resolve
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.parallel.slab import Reductions
 from micropit_hpc.spectral import Grid, rfft_plan
@@ -79,7 +80,10 @@ class ElasticHalfSpaces:
         self.compliance[0, 0] = 0.0
         self._fft = rfft_plan(grid.shape)
         self.slab = slab
-        self._transfer = (None if slab is None
+        self._serial = slab is None or slab.comm.size == 1
+        # serial: the transforms' 1/(nx·ny) folded into the transfer (RealFFT2.convolve);
+        # distributed: the slab's columns, mpi4py-fft normalising its own inverse
+        self._transfer = (self._fft.interleaved(self.compliance) if self._serial
                           else np.ascontiguousarray(self.compliance[:, slab.cols]))
 
     @property
@@ -93,10 +97,24 @@ class ElasticHalfSpaces:
         return self.slab is not None and self.slab.comm.size > 1
 
     def displacement(self, p: np.ndarray) -> np.ndarray:
-        """Combined normal displacement u(p) of the two surfaces (zero mean) [m]. With a slab:
-        ``p`` and u are this rank's rows (collective)."""
-        if self.slab is None:
-            return self._fft.filtered(p, self.compliance)
+        """Combined normal displacement u(p) of the two surfaces (zero mean) [m], a new array.
+        With a slab: ``p`` and u are this rank's rows (collective)."""
+        u = self.response(p)
+        return u.copy() if self._serial else u
+
+    @property
+    def input_buffer(self) -> np.ndarray | None:
+        """Where :meth:`response` reads its field when called without one: the serial
+        transform's own input buffer (whole window), or None when the rows are distributed."""
+        return self._fft.real_input if self._serial else None
+
+    def response(self, p: np.ndarray | None = None) -> np.ndarray:
+        """u(p) as :meth:`displacement`, without copies: serially a view of the transform's
+        output buffer, overwritten by the next transform of this shape; ``p`` None takes the
+        field already written into :attr:`input_buffer` (serial only). Collective with a slab.
+        """
+        if self._serial:
+            return self._fft.convolve(self._transfer, p)
         return self.slab.filtered(p, self._transfer)
 
     @cached_property
@@ -108,7 +126,7 @@ class ElasticHalfSpaces:
         on the whole window on this rank (not collective), with or without a slab."""
         unit = np.zeros(self.grid.shape)
         unit[0, 0] = 1.0
-        return float(self._fft.filtered(unit, self.compliance)[0, 0])
+        return float(self._fft.convolve(self._fft.interleaved(self.compliance), unit)[0, 0])
 
     @cached_property
     def stiffness(self) -> np.ndarray:
@@ -118,56 +136,163 @@ class ElasticHalfSpaces:
         return stiff
 
 
+#: Updates of the yielded set made with inexact (√tol) elastic solves before the search goes on
+#: at the full tolerance (:func:`solve_dry_contact`).
+LOOSE_UPDATES = 8
+
+#: The implementation of the iteration's elementwise stages that :func:`solve_dry_contact` uses
+#: when none is given: "auto" (compiled where Numba can be imported, else NumPy), "numba" or
+#: "numpy" (:mod:`micropit_hpc.compiled`). A module-level switch for whole runs.
+DEFAULT_KERNEL = "auto"
+
+
+class NumpyStages:
+    """The elementwise stages of one Polonsky–Keer iteration with NumPy (the reference;
+    ``_dry_numba`` fuses each into one pass). Every stage works in place on this rank's
+    arrays and returns the local sums the solver reduces over the group; the contact set
+    p > 0 is taken once per iteration (:meth:`gap`) and kept until :meth:`update`."""
+
+    def __init__(self, shape):
+        self._mask = np.empty(shape, dtype=bool)
+        self._tmp = np.empty(shape)
+        self._enter = np.empty(shape, dtype=bool)
+
+    def gap(self, g0, u, c, p, g):
+        """g = g0 + c u; (Σ g, count) over the contact points."""
+        np.multiply(u, c, out=g)
+        g += g0
+        np.greater(p, 0.0, out=self._mask)
+        return g.sum(where=self._mask), np.count_nonzero(self._mask)
+
+    def centre(self, g, p, mean):
+        """g −= mean; Σ g² over the contact points."""
+        g -= mean
+        np.multiply(g, g, out=self._tmp)
+        return self._tmp.sum(where=self._mask)
+
+    def direction(self, g, p, t, beta, out):
+        """t = g + β t on the contact, 0 elsewhere; also into ``out``."""
+        if beta:
+            t *= beta
+            t += g
+        else:
+            t[...] = g
+        np.multiply(t, self._mask, out=t)
+        if out is not t:
+            out[...] = t
+
+    def project(self, r, t, g, p):
+        """(Σ r over the contact, Σ r t, Σ t, Σ g t) (t vanishes off the contact)."""
+        return (r.sum(where=self._mask), float(np.vdot(r, t)), t.sum(), float(np.vdot(g, t)))
+
+    def update(self, p, t, g, c, tau, allowed, out):
+        """p = max(c p − τ t, 0); points at 0 with g < 0 (and allowed) enter at −τ g; also
+        into ``out``; (points entered, Σ p)."""
+        p *= c
+        np.multiply(t, tau, out=self._tmp)
+        p -= self._tmp
+        np.maximum(p, 0.0, out=p)
+        enter = self._enter
+        np.equal(p, 0.0, out=enter)
+        enter &= g < 0.0
+        if allowed is not None:
+            enter &= allowed
+        np.multiply(g, tau, out=self._tmp)
+        np.subtract(p, self._tmp, out=p, where=enter)
+        if out is not p:
+            out[...] = p
+        return np.count_nonzero(enter), p.sum()
+
+
+class CompiledStages:
+    """:class:`NumpyStages` on the compiled kernels of ``mod`` (``_dry_numba``): one pass each."""
+
+    def __init__(self, mod, shape):
+        self.k = mod
+        self._none = np.zeros(1, dtype=bool)
+
+    def gap(self, g0, u, c, p, g):
+        return self.k.gap(g0.reshape(-1), u.reshape(-1), c, p.reshape(-1), g.reshape(-1))
+
+    def centre(self, g, p, mean):
+        return self.k.centre(g.reshape(-1), p.reshape(-1), mean)
+
+    def direction(self, g, p, t, beta, out):
+        self.k.direction(g.reshape(-1), p.reshape(-1), t.reshape(-1), beta, out.reshape(-1))
+
+    def project(self, r, t, g, p):
+        return self.k.project(r.reshape(-1), t.reshape(-1), g.reshape(-1), p.reshape(-1))
+
+    def update(self, p, t, g, c, tau, allowed, out):
+        restricted = allowed is not None
+        return self.k.update(p.reshape(-1), t.reshape(-1), g.reshape(-1), c, tau,
+                             allowed.reshape(-1) if restricted else self._none, restricted,
+                             out.reshape(-1))
+
+
+def iteration_stages(shape, kernel: str | None = None):
+    """The stages of :func:`_polonsky_keer` for fields of ``shape``: compiled or NumPy by
+    ``kernel`` (None: :data:`DEFAULT_KERNEL`)."""
+    mod = resolve(DEFAULT_KERNEL if kernel is None else kernel, "lubrication._dry_numba",
+                  "solve_dry_contact")
+    return NumpyStages(shape) if mod is None else CompiledStages(mod, shape)
+
+
 def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float,
                    tol: float, max_iter: int, p: np.ndarray,
                    excluded: np.ndarray | None, N: int,
-                   group: Reductions) -> tuple[np.ndarray, np.ndarray, int, float]:
+                   group: Reductions, stages) -> tuple[np.ndarray, np.ndarray, int, float]:
     """Elastic load-controlled contact, Polonsky & Keer (1999) eqs. (13)–(22); points in
     ``excluded`` carry no pressure and may not enter. Returns (p, g − ḡ, iterations, ε).
-    ``g0``, ``p``, ``excluded``: this rank's rows of the ``N`` points of the window; every sum
-    and scalar product is reduced over ``group``."""
+    ``g0``, ``p``, ``excluded``: this rank's rows of the ``N`` points of the window (C-ordered;
+    ``p`` is updated in place); every sum and scalar product is reduced over ``group``.
+
+    One iteration is two convolutions u(p) and u(t) and five elementwise passes, the
+    ``stages`` (:func:`iteration_stages`). The fields they write for a convolution go straight
+    into the transform's input buffer, the responses are read from its output buffer, the
+    transforms' normalisation sits in the transfer function, and the load's rescaling of p is
+    kept as a factor c (the true pressure is c·p: u(c p) = c u(p), and p > 0 marks the same
+    contact) that the next update applies (docs/performance.md §10)."""
     allowed = None if excluded is None else ~excluded
     if allowed is not None:
         p[excluded] = 0.0
     (p_sum,) = group.sums(p.sum())
-    p *= P * N / p_sum
+    buf = hs.input_buffer
+    if buf is not None:
+        buf[...] = p
+    c = P * N / p_sum
+    g = np.empty_like(g0)
     t = np.zeros_like(g0)
     G_old, conjugate, error = 1.0, False, math.inf
-    for it in range(1, max_iter + 1):
-        g = g0 + hs.displacement(p)
-        contact = p > 0.0
-        g_sum, n_contact = group.sums(g[contact].sum(), np.count_nonzero(contact))
-        g -= g_sum / n_contact
-        r_c = np.where(contact, g, 0.0)
-        (G,) = group.sums(float(np.vdot(r_c, r_c)))
+    it = 0
+    while it < max_iter:
+        it += 1
+        u = hs.response(p if buf is None else None)
+        g_sum, n_contact = group.sums(*stages.gap(g0, u, c, p, g))
+        (G,) = group.sums(stages.centre(g, p, g_sum / n_contact))
         error = math.sqrt(G / n_contact) / scale
         if error <= tol:
-            return p, g, it, error
-        t = r_c + (G / G_old) * t if conjugate else r_c
-        t[~contact] = 0.0
+            break
+        stages.direction(g, p, t, G / G_old if conjugate else 0.0, t if buf is None else buf)
         G_old = G
-        r = hs.displacement(t)
-        (r_sum,) = group.sums(r[contact].sum())
-        r -= r_sum / n_contact
-        curvature, rt = group.sums(float(np.vdot(r, t)), float(np.vdot(r_c, t)))
+        r = hs.response(t if buf is None else None)
+        r_sum, rt, t_sum, gt = group.sums(*stages.project(r, t, g, p))
+        curvature = rt - r_sum / n_contact * t_sum     # Σ (r − r̄_contact) t
         if curvature <= 0.0:   # no descent left at round-off level
-            return p, g, it, error
-        tau = rt / curvature
-        p = p - tau * t
-        np.maximum(p, 0.0, out=p)
-        enter = (p == 0.0) & (g < 0.0)          # overlap without pressure: enters the contact
-        if allowed is not None:
-            enter &= allowed
-        p[enter] -= tau * g[enter]              # nothing where no point enters
-        n_enter, p_sum = group.sums(np.count_nonzero(enter), p.sum())
+            break
+        tau = gt / curvature
+        n_enter, p_sum = group.sums(*stages.update(p, t, g, c, tau, allowed,
+                                                   p if buf is None else buf))
         conjugate = not n_enter
-        p *= P * N / p_sum
-    return p, g, max_iter, error
+        c = P * N / p_sum
+    p *= c
+    return p, g, it, error
 
 
 def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pressure: float,
                       p_lim: float = math.inf, *, tol: float, max_iter: int,
-                      p_init: np.ndarray | None = None) -> DryContact:
+                      p_init: np.ndarray | None = None,
+                      kernel: str | None = None) -> DryContact:
     """Load-controlled elastic–perfectly-plastic contact of the undeformed gap ``gap0``.
 
     Elastic part: Polonsky & Keer (1999), converged when the relative residual
@@ -178,7 +303,9 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     set is found by the fixed-point iteration of Jacq et al. (J. Tribol. 124 (2002) 653–667):
     points at p_lim are held at the cap, the elastic problem is solved on the rest, points whose
     elastic pressure exceeds the cap join the set and points of the set whose gap opens leave
-    it, until the set no longer changes. ``p_init`` warm-starts the iteration (e.g. the previous
+    it, until the set no longer changes. ``kernel``: the implementation of the iteration's
+    elementwise stages (:func:`iteration_stages`; None: :data:`DEFAULT_KERNEL`); the compiled
+    and the NumPy stages agree to round-off. ``p_init`` warm-starts the iteration (e.g. the previous
     time step's pressure); ``max_iter`` bounds the total number of CG steps. ``tol`` and
     ``max_iter`` are the scene's ``lubrication.tolerance`` and ``lubrication.max_iterations``
     (:class:`~micropit_hpc.scene.LubricationSpec`), which the callers pass.
@@ -196,7 +323,7 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     grid = hs.grid
     group = Reductions(hs.slab)
     rows = hs.rows
-    g0 = np.asarray(gap0, dtype=float)
+    g0 = np.ascontiguousarray(gap0, dtype=float)
     local_shape = (rows.stop - rows.start, grid.ny)
     if g0.shape != local_shape:
         raise ValueError(f"gap shape {g0.shape} != grid {grid.shape}" +
@@ -221,12 +348,19 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     if group.max(g0.max()) - g_min == 0.0:  # flat: uniform pressure is the exact solution
         return DryContact(np.full_like(g0, P), np.zeros_like(g0), float(g0_mean), 0, 0.0)
 
+    stages = iteration_stages(g0.shape, kernel)
     p = np.full_like(g0, P) if p_init is None else np.clip(p_init, 0.0, None).astype(float)
     if not group.any(p):
         p[...] = P
     plastic = p >= p_lim
     used, error, settled = 0, math.inf, False
     updates = 0
+    # With a finite cap the yielded set is first sought with inexact elastic solves (tolerance
+    # √tol): a set that will change anyway needs no converged pressure. The search goes on at
+    # tol once the set holds at √tol, once a solve starts already within √tol (the inexact
+    # pressures no longer move, and a few points could flip in and out of the set for ever)
+    # or after LOOSE_UPDATES updates. The answer has to meet the same conditions at tol.
+    phase_tol = max(tol, math.sqrt(tol)) if math.isfinite(p_lim) else tol
     while used < max_iter:
         updates += 1
         (n_pl,) = group.sums(np.count_nonzero(plastic))
@@ -241,16 +375,22 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
             p = np.where(plastic, 0.0, p)
             if not group.any(p):
                 p = np.where(plastic, 0.0, P_el)
-        p, g, it, error = _polonsky_keer(g_fixed, hs, P_el, scale, tol, max_iter - used, p,
-                                         plastic if n_pl else None, N, group)
+        p, g, it, error = _polonsky_keer(g_fixed, hs, P_el, scale, phase_tol, max_iter - used,
+                                         p, plastic if n_pl else None, N, group, stages)
         used += it
-        if error > tol:
+        if error > phase_tol:
             break
         p_total = np.where(plastic, p_lim, p)
         grow = p > p_lim
         release = plastic & (g > 0.0)
         n_grow, n_release = group.sums(np.count_nonzero(grow), np.count_nonzero(release))
-        if not n_grow and not n_release:
+        if phase_tol > tol and (it <= 1 or updates >= LOOSE_UPDATES
+                                or not (n_grow or n_release)):
+            phase_tol = tol         # from here on the exact search (or its confirmation)
+            if not (n_grow or n_release):
+                p = p_total
+                continue
+        elif not n_grow and not n_release:
             p, settled = p_total, True
             break
         plastic = (plastic & ~release) | grow

@@ -41,9 +41,10 @@ import math
 
 import numpy as np
 
-from micropit_hpc.spectral import Grid
+from micropit_hpc.compiled import resolve
+from micropit_hpc.spectral import Grid, rfft_plan
 
-__all__ = ["STRESS_CHUNK_BYTES", "VOIGT", "HalfSpaceStress", "depth_layers",
+__all__ = ["DEFAULT_KERNEL", "STRESS_CHUNK_BYTES", "VOIGT", "HalfSpaceStress", "depth_layers",
            "history_chunk_layers"]
 
 #: Voigt order of the stress components in every (6, ...) stress block.
@@ -53,6 +54,11 @@ VOIGT = ("xx", "yy", "zz", "yz", "xz", "xy")
 #: (:func:`history_chunk_layers`): the load cycle streams the history through depth in chunks of
 #: layers no larger than this (one layer at least), docs/performance.md "Streamed stresses".
 STRESS_CHUNK_BYTES = 64 * 2 ** 20
+
+#: The implementation of the per-layer combination that :meth:`HalfSpaceStress.stresses` uses
+#: when none is given: "auto" (compiled where Numba can be imported, else NumPy), "numba" or
+#: "numpy" (:mod:`micropit_hpc.compiled`). A module-level switch for whole runs.
+DEFAULT_KERNEL = "auto"
 
 
 def history_chunk_layers(n_layers: int, steps: int, points: int,
@@ -197,6 +203,12 @@ class HalfSpaceStress:
         if cols.start == 0:
             self._E[:, 0, 0] = 0.0
         self._F = t * self._E
+        # one rank: the inverse transforms read the combination straight from the batch plan's
+        # input buffer, their 1/(nx·ny) folded into the layer factors (no normalising pass)
+        self._plan = rfft_plan(grid.shape, batch=6) if slab.comm.size == 1 else None
+        if self._plan is not None:
+            self._E /= grid.nx * grid.ny
+            self._F /= grid.nx * grid.ny
         # Nyquist row/column of even axes: kernels are averaged over ±k there (module docstring)
         self._nyq_row = nx // 2 if grid.nx % 2 == 0 else None
         last = nyh - 1 - cols.start
@@ -204,7 +216,8 @@ class HalfSpaceStress:
         # scratch
         self._A = np.empty((6, nx, ncols), dtype=complex)
         self._B = np.empty((6, nx, ncols), dtype=complex)
-        self._C = np.empty((6, nx, ncols), dtype=complex)
+        self._C = (np.empty((6, nx, ncols), dtype=complex) if self._plan is None
+                   else self._plan.spectral_input)
         self._T = np.empty((nx, ncols), dtype=complex)
         self._spec = np.empty((3, nx, ncols), dtype=complex)
 
@@ -245,7 +258,8 @@ class HalfSpaceStress:
         if r is not None and c is not None:
             average(((r,), (c,)), ((1, 1), (-1, 1), (1, -1), (-1, -1)))
 
-    def stresses(self, P_hat, Tx_hat, Ty_hat=None, out=None, layers=None) -> np.ndarray:
+    def stresses(self, P_hat, Tx_hat, Ty_hat=None, out=None, layers=None,
+                 kernel: str | None = None) -> np.ndarray:
         """Stresses (6, N_z, nx, ny) of the fluctuating surface tractions (docs/model.md A.1).
 
         ``P_hat``, ``Tx_hat``, ``Ty_hat``: half spectra (``rfft2``, shape (nx, ny//2+1); on a
@@ -254,8 +268,10 @@ class HalfSpaceStress:
         modes are ignored. ``layers``: optional indices (or a slice) into :attr:`z` to compute
         only those layers (to bound memory on large grids); the result then has
         ``len(layers)`` layers. ``out``: optional float64 array of the result's shape.
+        ``kernel``: the layer combination compiled or with NumPy (:mod:`micropit_hpc.compiled`;
+        None: :data:`DEFAULT_KERNEL`); the two agree to round-off.
         """
-        ss = self._T.shape
+        ss = self._A.shape[1:]
         for name, s in (("P_hat", P_hat), ("Tx_hat", Tx_hat), ("Ty_hat", Ty_hat)):
             if s is not None and np.shape(s) != ss:
                 raise ValueError(f"{name} has shape {np.shape(s)}, expected {ss}")
@@ -270,14 +286,24 @@ class HalfSpaceStress:
         _kernel_spectra(P_hat, Tx_hat, Ty_hat, self._a, self._b, self.nu, self._A, self._B)
         if self._nyq_row is not None or self._nyq_col is not None:
             self._symmetrise(P_hat, Tx_hat, Ty_hat)
-        A, B, C, T = self._A, self._B, self._C, self._T
+        A, B, C = self._A, self._B, self._C
+        compiled = resolve(DEFAULT_KERNEL if kernel is None else kernel,
+                           "mechanics._halfspace_numba", "HalfSpaceStress.stresses")
+        plan, T = self._plan, self._T
         for kk, k in enumerate(idx):
             E, F = self._E[k], self._F[k]
-            for c in range(6):  # C_c = E A_c + ζz E B_c, one scratch plane
-                np.multiply(A[c], E, out=C[c])
-                np.multiply(B[c], F, out=T)
-                C[c] += T
-            self.slab.inverse6(C, out[:, kk])
+            if compiled is not None:   # C_c = E A_c + ζz E B_c, one fused pass
+                compiled.combine(A.view(np.float64), B.view(np.float64), E, F,
+                                 C.view(np.float64))
+            else:
+                for c in range(6):
+                    np.multiply(A[c], E, out=C[c])
+                    np.multiply(B[c], F, out=T)
+                    C[c] += T
+            if plan is None:
+                self.slab.inverse6(C, out[:, kk])
+            else:
+                out[:, kk] = plan.execute_inverse()
         return out
 
     def spectra(self, p, qx, qy=None):

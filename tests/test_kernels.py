@@ -1,0 +1,156 @@
+"""The compiled stages of the contact iteration (micropit_hpc/lubrication/_dry_numba.py) and
+the compiled layer combination of the stresses (micropit_hpc/mechanics/_halfspace_numba.py)
+against their NumPy references; the plan-buffer transforms (RealFFT2.convolve,
+execute_inverse) against plain NumPy FFTs; the fallback where Numba is missing
+(docs/performance.md §10)."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+from test_dry_contact import E_PRIME, _rough
+
+from micropit_hpc import compiled
+from micropit_hpc.lubrication import dry
+from micropit_hpc.lubrication.dry import (
+    ElasticHalfSpaces,
+    NumpyStages,
+    iteration_stages,
+    solve_dry_contact,
+)
+from micropit_hpc.mechanics import HalfSpaceStress, depth_layers
+from micropit_hpc.spectral import Grid, rfft_plan
+
+needs_numba = pytest.mark.skipif(
+    compiled.compiled_module("lubrication._dry_numba") is None, reason="Numba not installed")
+
+
+def stage_inputs(shape=(48, 40), seed=1):
+    """Fields like an iteration's: p > 0 on about a third of the points (zeros elsewhere),
+    gaps of both signs, a direction that vanishes off the contact."""
+    rng = np.random.default_rng(seed)
+    p = np.where(rng.random(shape) < 0.35, rng.random(shape) * 1e9, 0.0)
+    g0, u, g = rng.normal(size=(3, *shape)) * 1e-6
+    t = np.where(p > 0, rng.normal(size=shape) * 1e-6, 0.0)
+    allowed = rng.random(shape) < 0.8
+    return p, g0, u, g, t, allowed
+
+
+@needs_numba
+def test_compiled_stages_equal_the_numpy_stages():
+    """Each stage, same inputs: the fields written equal to round-off (the compiled ones may
+    fuse a multiply-add) and the local sums to 1e-13 relative (added in another order)."""
+    p, g0, u, g, t, allowed = stage_inputs()
+    shape = p.shape
+    ref, new = NumpyStages(shape), iteration_stages(shape, "numba")
+    assert not isinstance(new, NumpyStages)
+
+    def both(name, *args, fields=()):
+        """Run stage ``name`` on copies; compare what it returns and the fields it writes."""
+        a = [x.copy() if isinstance(x, np.ndarray) else x for x in args]
+        b = [x.copy() if isinstance(x, np.ndarray) else x for x in args]
+        ra, rb = getattr(ref, name)(*a), getattr(new, name)(*b)
+        for i in fields:
+            np.testing.assert_allclose(b[i], a[i], rtol=1e-15, atol=1e-15 * np.abs(a[i]).max())
+        if ra is not None:
+            for x, y in zip(np.atleast_1d(ra), np.atleast_1d(rb), strict=True):
+                assert y == pytest.approx(x, rel=1e-13, abs=1e-300)
+        return ra, a
+
+    (s, n), out = both("gap", g0, u, 0.7, p, g, fields=(4,))
+    assert n == np.count_nonzero(p > 0) and s == pytest.approx((g0 + 0.7 * u)[p > 0].sum())
+    gg = out[4]
+    both("centre", gg, p, float(s / n), fields=(0,))
+    buf = np.empty(shape)
+    both("direction", gg, p, t, 0.0, buf, fields=(2, 4))
+    _, out = both("direction", gg, p, t, 0.37, buf, fields=(2, 4))
+    assert np.all(out[2][p == 0] == 0) and np.array_equal(out[2], out[4])
+    both("project", u, t, gg, p)
+    for restricted in (None, allowed):
+        (n_enter, _), out = both("update", p, t, gg, 1.3, 2e15, restricted, buf, fields=(0, 6))
+        assert n_enter > 0 and out[0].min() >= 0.0 and np.array_equal(out[0], out[6])
+
+
+@needs_numba
+@pytest.mark.parametrize("p_lim", [np.inf, 1.6e9])
+def test_compiled_solve_equals_the_numpy_solve(p_lim):
+    """The whole dry solve with each kernel on a rough 128² gap, elastic and with the cap:
+    the same iterations (± 2) and pressures within 1e-9 of the peak; both meet the load."""
+    g, gap0 = _rough(7)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    runs = {k: solve_dry_contact(gap0, hs, 1e9, p_lim=p_lim, tol=1e-10, max_iter=5000, kernel=k)
+            for k in ("numpy", "numba")}
+    a, b = runs["numpy"], runs["numba"]
+    assert abs(a.iterations - b.iterations) <= 2
+    assert np.abs(a.pressure - b.pressure).max() <= 1e-9 * a.pressure.max()
+    for r in (a, b):
+        assert r.pressure.mean() == pytest.approx(1e9, rel=1e-12) and r.error <= 1e-10
+        assert r.pressure.max() <= p_lim
+
+
+def test_convolve_and_inverse_through_the_plan_buffers():
+    """RealFFT2.convolve (normalisation in the interleaved transfer, input from the plan's own
+    buffer) and execute_inverse equal NumPy's irfft2(rfft2(a)·T) and irfft2 to round-off."""
+    rng = np.random.default_rng(3)
+    for shape in ((32, 24), (27, 15)):
+        plan = rfft_plan(shape)
+        a = rng.normal(size=shape)
+        T = rng.random((shape[0], shape[1] // 2 + 1))
+        expect = np.fft.irfft2(np.fft.rfft2(a) * T, s=shape)
+        np.testing.assert_allclose(plan.convolve(plan.interleaved(T), a), expect,
+                                   rtol=0, atol=1e-14 * np.abs(expect).max())
+        plan.real_input[...] = a
+        np.testing.assert_allclose(plan.convolve(plan.interleaved(T)), expect,
+                                   rtol=0, atol=1e-14 * np.abs(expect).max())
+        batch = rfft_plan(shape, batch=6)
+        spec = np.fft.rfft2(rng.normal(size=(6, *shape)))
+        batch.spectral_input[...] = spec
+        got = batch.execute_inverse() / (shape[0] * shape[1])
+        np.testing.assert_allclose(got, np.fft.irfft2(spec, s=shape), rtol=0,
+                                   atol=1e-14 * np.abs(got).max())
+
+
+@pytest.mark.skipif(compiled.compiled_module("mechanics._halfspace_numba") is None,
+                    reason="Numba not installed")
+@pytest.mark.parametrize("shape", [(64, 48), (27, 15)])
+def test_compiled_stresses_equal_the_numpy_stresses(shape):
+    """The layer combination compiled and with NumPy: the same stresses to 1e-14 of the
+    largest, on even (Nyquist) and odd grids, all layers and a subset."""
+    g = Grid(*shape, 1e-4, 0.8e-4)
+    hs = HalfSpaceStress(g, depth_layers(6, 2e-5), 0.3)
+    rng = np.random.default_rng(5)
+    spectra = [s.copy() for s in hs.spectra(*rng.normal(size=(3, *shape)))]
+    for layers in (None, [4, 1]):
+        ref = hs.stresses(*spectra, layers=layers, kernel="numpy").copy()
+        new = hs.stresses(*spectra, layers=layers, kernel="numba")
+        np.testing.assert_allclose(new, ref, rtol=0, atol=1e-14 * np.abs(ref).max())
+
+
+def test_without_numba_the_numpy_path_is_taken(monkeypatch):
+    """Numba made unimportable: "auto" runs the NumPy stages and combination with the same
+    numbers as "numpy"; "numba" says what is missing; a wrong name is refused."""
+    g, gap0 = _rough(4, n=32)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    expect = solve_dry_contact(gap0, hs, 1e9, tol=1e-10, max_iter=5000, kernel="numpy")
+    grid = Grid(16, 16, 1e-4, 1e-4)
+    stress = HalfSpaceStress(grid, [0.0, 1e-5], 0.3)
+    spectra = [s.copy() for s in stress.spectra(*np.random.default_rng(2).normal(size=(3, 16, 16)))]
+    s_expect = stress.stresses(*spectra, kernel="numpy").copy()
+    monkeypatch.setitem(sys.modules, "numba", None)                    # import numba fails
+    for name in ("lubrication._dry_numba", "mechanics._halfspace_numba"):
+        monkeypatch.delitem(sys.modules, f"micropit_hpc.{name}", raising=False)
+    monkeypatch.setattr(compiled, "_loaded", {})                       # forget the last imports
+    assert isinstance(iteration_stages(gap0.shape), NumpyStages)
+    got = solve_dry_contact(gap0, hs, 1e9, tol=1e-10, max_iter=5000)
+    assert np.array_equal(got.pressure, expect.pressure)
+    assert np.array_equal(stress.stresses(*spectra), s_expect)
+    with pytest.raises(ImportError, match="needs Numba"):
+        solve_dry_contact(gap0, hs, 1e9, tol=1e-10, max_iter=5000, kernel="numba")
+    with pytest.raises(ImportError, match="needs Numba"):
+        stress.stresses(*spectra, kernel="numba")
+    with pytest.raises(ValueError, match="kernel must be one of"):
+        iteration_stages(gap0.shape, "fortran")
+    monkeypatch.setattr(dry, "DEFAULT_KERNEL", "numpy")
+    assert isinstance(iteration_stages(gap0.shape), NumpyStages)
