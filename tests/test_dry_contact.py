@@ -161,3 +161,23 @@ def test_errors_are_clear():
         solve_dry_contact(gap0, hs, 5e9, p_lim=4.2e9, tol=TOL, max_iter=MAX_ITER)
     with pytest.raises(ContactError, match="finite"):
         solve_dry_contact(gap0, hs, math.nan, tol=TOL, max_iter=MAX_ITER)
+
+
+@pytest.mark.parametrize("seed", [3, 8])
+def test_inexact_set_search_finds_the_same_answer(seed, monkeypatch):
+    """The yielded set sought with √tol solves first (dry.LOOSE_UPDATES) ends on the answer of
+    the search at the full tolerance throughout: the same yielded set, pressures within 1e-7
+    of the cap, and the load and the cap held exactly."""
+    from micropit_hpc.lubrication import dry
+
+    g, gap0 = _rough(seed)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    P = 1.0e9
+    p_lim = 0.45 * solve_dry_contact(gap0, hs, P, tol=TOL, max_iter=MAX_ITER).pressure.max()
+    fast = solve_dry_contact(gap0, hs, P, p_lim=p_lim, tol=1e-10, max_iter=MAX_ITER)
+    monkeypatch.setattr(dry, "LOOSE_UPDATES", 0)
+    exact = solve_dry_contact(gap0, hs, P, p_lim=p_lim, tol=1e-10, max_iter=MAX_ITER)
+    assert np.array_equal(fast.pressure >= p_lim, exact.pressure >= p_lim)
+    assert np.abs(fast.pressure - exact.pressure).max() <= 1e-7 * p_lim
+    for r in (fast, exact):
+        assert r.pressure.max() <= p_lim and r.pressure.mean() == pytest.approx(P, rel=1e-12)

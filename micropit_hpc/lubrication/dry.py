@@ -137,7 +137,7 @@ class ElasticHalfSpaces:
 
 
 #: Updates of the yielded set made with inexact (√tol) elastic solves before the search goes on
-#: at the full tolerance (:func:`solve_dry_contact`).
+#: at the full tolerance (:func:`solve_dry_contact`); 0: every solve at the full tolerance.
 LOOSE_UPDATES = 8
 
 #: The implementation of the iteration's elementwise stages that :func:`solve_dry_contact` uses
@@ -360,7 +360,8 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     # tol once the set holds at √tol, once a solve starts already within √tol (the inexact
     # pressures no longer move, and a few points could flip in and out of the set for ever)
     # or after LOOSE_UPDATES updates. The answer has to meet the same conditions at tol.
-    phase_tol = max(tol, math.sqrt(tol)) if math.isfinite(p_lim) else tol
+    phase_tol = (max(tol, math.sqrt(tol)) if math.isfinite(p_lim) and LOOSE_UPDATES > 0
+                 else tol)
     while used < max_iter:
         updates += 1
         (n_pl,) = group.sums(np.count_nonzero(plastic))
