@@ -242,9 +242,10 @@ class MixedLubrication:
                 return r_tot + (1.0 - phi) * (H_t - r_tot)
             return H_t
 
-        def film(phi):
-            """Mean clearance minus the flow balance's c_ρ h̄, and the dry solution at φ."""
-            start = state["p"]
+        def film(phi, near=None):
+            """Mean clearance minus the flow balance's c_ρ h̄, and the dry solution at φ, its
+            solves started from ``near``'s pressure when given (else the last solve's)."""
+            start = state["p"] if near is None or not group.any(near.pressure) else near.pressure
             if warm is not None:
                 start = warm.get(phi if phi in PHI_SCAN else "root", start)
             sol = solve_dry_contact(fft.inverse(clearance_spectrum(phi))[rows], hs,
@@ -267,34 +268,46 @@ class MixedLubrication:
         # The balance need not be monotone in φ (with fluid_share = "scaled" the dry part acts
         # on less flattened roughness as φ grows): take the smallest root, bracketed by a
         # coarse scan, and φ = 1 only when no φ lets the solids reach the film.
-        lo, flo = 0.0, f0
+        # Each solve of the root search starts from the solution at the nearer end of the
+        # bracket (its load and contact are the closest at hand).
+        lo, flo, sol_lo = 0.0, f0, None
         hi, fhi, sol = None, None, None
         for trial in PHI_SCAN:
             f, s_trial = film(trial)
             if f <= 0.0:
                 hi, fhi, sol = trial, f, s_trial
                 break
-            lo, flo, sol = trial, f, s_trial
+            lo, flo, sol_lo = trial, f, s_trial
+            sol = s_trial
+        sol_hi = sol
         if hi is None:
             phi = 1.0
         else:
             phi = hi
             guess = None if warm is None else warm.get("phi")
+            side = 0        # +1: lo moved last, −1: hi moved last
             for _ in range(60):  # regula falsi (Illinois) on the bracketed film balance
                 if guess is not None and lo < guess < hi:   # the last evaluation's root first
                     phi = guess
                 else:
                     phi = hi - fhi * (hi - lo) / (fhi - flo)
                 guess = None
-                f, sol = film(phi)
+                f, sol = film(phi, sol_lo if sol_lo is not None and phi - lo < hi - phi
+                              else sol_hi)
                 if abs(f) <= prm.film_tol * h_bar or hi - lo < 1e-9:
                     break
+                # Illinois: the end kept twice running has its value halved (halving it
+                # on every step, as before, made the search no faster than bisection)
                 if f > 0:
-                    lo, flo = phi, f
-                    fhi *= 0.5
+                    lo, flo, sol_lo = phi, f, sol
+                    if side > 0:
+                        fhi *= 0.5
+                    side = 1
                 else:
-                    hi, fhi = phi, f
-                    flo *= 0.5
+                    hi, fhi, sol_hi = phi, f, sol
+                    if side < 0:
+                        flo *= 0.5
+                    side = -1
         if warm is not None and hi is not None:
             warm["root"], warm["phi"] = sol.pressure.astype(np.float32), phi
         clearance = sol.gap if group.slab is None else group.slab.allgather_rows(sol.gap)
