@@ -253,18 +253,6 @@ class RealFFT2:
         self._inv.execute()
         return self._inv.output_array
 
-    def filtered(self, a: np.ndarray, transfer: np.ndarray) -> np.ndarray:
-        """irfft2(rfft2(a) · transfer), normalised, as a new array: a periodic convolution
-        through the plan's own buffers, without the intermediate copies of
-        ``inverse(forward(a) * transfer)`` (the contact solver's inner loop)."""
-        if self._fwd is None:  # pragma: no cover
-            return np.fft.irfft2(np.fft.rfft2(a) * transfer, s=self.shape)
-        self._fwd.input_array[...] = a
-        self._fwd.execute()
-        np.multiply(self._fwd.output_array, transfer, out=self._inv.input_array)
-        self._inv.execute()
-        return np.multiply(self._inv.output_array, 1.0 / (self.shape[0] * self.shape[1]))
-
 
 _PLANS: dict[tuple, RealFFT2] = {}
 

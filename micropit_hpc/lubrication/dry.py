@@ -84,7 +84,7 @@ class ElasticHalfSpaces:
         # serial: the transforms' 1/(nx·ny) folded into the transfer (RealFFT2.convolve);
         # distributed: the slab's columns, mpi4py-fft normalising its own inverse
         self._transfer = (self._fft.interleaved(self.compliance) if self._serial
-                          else np.ascontiguousarray(self.compliance[:, slab.cols]))
+                          else slab.interleaved(self.compliance))
 
     @property
     def rows(self) -> slice:
@@ -99,8 +99,7 @@ class ElasticHalfSpaces:
     def displacement(self, p: np.ndarray) -> np.ndarray:
         """Combined normal displacement u(p) of the two surfaces (zero mean) [m], a new array.
         With a slab: ``p`` and u are this rank's rows (collective)."""
-        u = self.response(p)
-        return u.copy() if self._serial else u
+        return self.response(p).copy()
 
     @property
     def input_buffer(self) -> np.ndarray | None:
@@ -109,8 +108,8 @@ class ElasticHalfSpaces:
         return self._fft.real_input if self._serial else None
 
     def response(self, p: np.ndarray | None = None) -> np.ndarray:
-        """u(p) as :meth:`displacement`, without copies: serially a view of the transform's
-        output buffer, overwritten by the next transform of this shape; ``p`` None takes the
+        """u(p) as :meth:`displacement`, without the copy out: a view of the transform's
+        output buffer (or the slab's), overwritten by the next transform; ``p`` None takes the
         field already written into :attr:`input_buffer` (serial only). Collective with a slab.
         """
         if self._serial:

@@ -105,19 +105,26 @@ class Slab:
         return self._pfft.forward(self._real, self._spec.copy(), normalize=False)
 
     def filtered(self, f_local: np.ndarray, transfer: np.ndarray) -> np.ndarray:
-        """The rows :attr:`rows` of irfft2(rfft2(f) · transfer), normalised, as a new array: a
-        periodic convolution of the field whose rows are ``f_local`` by the transfer function
-        whose k_y columns :attr:`cols` are ``transfer`` (the contact solver's inner loop,
-        :class:`~micropit_hpc.lubrication.dry.ElasticHalfSpaces`). One rank: the serial
-        plan's :meth:`~micropit_hpc.spectral.RealFFT2.filtered`, the same numbers. Collective.
-        """
+        """The rows :attr:`rows` of irfft2(rfft2(f) · T): a periodic convolution of the field
+        whose rows are ``f_local`` by the real transfer function T, whose k_y columns
+        :attr:`cols` ``transfer`` holds laid out as :meth:`interleaved` makes them
+        (normalisation folded in, each value twice), as a view of the slab's buffer
+        (overwritten by its next transform). The contact solver's inner loop
+        (:class:`~micropit_hpc.lubrication.dry.ElasticHalfSpaces`). Collective."""
         if self._pfft is None:
-            return self._fwd.filtered(f_local, transfer)
+            return self._fwd.convolve(transfer, f_local)
         self._real[...] = f_local
         spec = self._pfft.forward(self._real, self._spec, normalize=False)
-        spec *= transfer
-        self._pfft.backward(spec, self._real, normalize=True)
-        return self._real.copy()
+        spec_f = spec.view(np.float64)
+        np.multiply(spec_f, transfer, out=spec_f)
+        return self._pfft.backward(spec, self._real, normalize=False)
+
+    def interleaved(self, transfer: np.ndarray) -> np.ndarray:
+        """The columns :attr:`cols` of a whole-window real transfer function (``(nx, ny//2+1)``)
+        laid out for :meth:`filtered`: divided by nx·ny and each value twice (real and
+        imaginary part of its mode)."""
+        local = np.asarray(transfer, dtype=float)[:, self.cols]
+        return np.repeat(local / (self.grid.nx * self.grid.ny), 2, axis=-1)
 
     def inverse6(self, c: np.ndarray, out: np.ndarray) -> np.ndarray:
         """Six inverse transforms (normalised): local spectra ``c`` (6, n_x, len(cols)) into
