@@ -258,6 +258,16 @@ class HalfSpaceStress:
         if r is not None and c is not None:
             average(((r,), (c,)), ((1, 1), (-1, 1), (1, -1), (-1, -1)))
 
+    def _nyquist_lines(self, C, E, F):
+        """C_c = E A_c + F B_c on the Nyquist row and column, from the symmetrised kernels that
+        :meth:`_symmetrise` left in A, B there (the compiled pass formed the unsymmetrised
+        ones)."""
+        A, B, r, c = self._A, self._B, self._nyq_row, self._nyq_col
+        if r is not None:
+            C[:, r] = A[:, r] * E[r] + B[:, r] * F[r]
+        if c is not None:
+            C[:, :, c] = A[:, :, c] * E[:, c] + B[:, :, c] * F[:, c]
+
     def stresses(self, P_hat, Tx_hat, Ty_hat=None, out=None, layers=None,
                  kernel: str | None = None) -> np.ndarray:
         """Stresses (6, N_z, nx, ny) of the fluctuating surface tractions (docs/model.md A.1).
@@ -268,8 +278,9 @@ class HalfSpaceStress:
         modes are ignored. ``layers``: optional indices (or a slice) into :attr:`z` to compute
         only those layers (to bound memory on large grids); the result then has
         ``len(layers)`` layers. ``out``: optional float64 array of the result's shape.
-        ``kernel``: the layer combination compiled or with NumPy (:mod:`micropit_hpc.compiled`;
-        None: :data:`DEFAULT_KERNEL`); the two agree to round-off.
+        ``kernel``: each layer's spectra formed in one compiled pass or with NumPy from the
+        kernels stored once per call (:mod:`micropit_hpc.compiled`; None:
+        :data:`DEFAULT_KERNEL`); the two agree to round-off.
         """
         ss = self._A.shape[1:]
         for name, s in (("P_hat", P_hat), ("Tx_hat", Tx_hat), ("Ty_hat", Ty_hat)):
@@ -283,18 +294,22 @@ class HalfSpaceStress:
             out = np.empty(shape)
         elif out.shape != shape or out.dtype != np.float64:
             raise ValueError(f"out must be float64 of shape {shape}")
-        _kernel_spectra(P_hat, Tx_hat, Ty_hat, self._a, self._b, self.nu, self._A, self._B)
-        if self._nyq_row is not None or self._nyq_col is not None:
-            self._symmetrise(P_hat, Tx_hat, Ty_hat)
-        A, B, C = self._A, self._B, self._C
         compiled = resolve(DEFAULT_KERNEL if kernel is None else kernel,
                            "mechanics._halfspace_numba", "HalfSpaceStress.stresses")
+        if compiled is None:   # the reference: the twelve kernel planes once per call
+            _kernel_spectra(P_hat, Tx_hat, Ty_hat, self._a, self._b, self.nu, self._A, self._B)
+        nyquist = self._nyq_row is not None or self._nyq_col is not None
+        if nyquist:            # (the compiled pass takes the symmetrised lines from A, B)
+            self._symmetrise(P_hat, Tx_hat, Ty_hat)
+        A, B, C = self._A, self._B, self._C
         plan, T = self._plan, self._T
         for kk, k in enumerate(idx):
             E, F = self._E[k], self._F[k]
-            if compiled is not None:   # C_c = E A_c + ζz E B_c, one fused pass
-                compiled.combine(A.view(np.float64), B.view(np.float64), E, F,
-                                 C.view(np.float64))
+            if compiled is not None:   # C_c = E A_c + ζz E B_c, kernels formed on the fly
+                compiled.layer_spectra(P_hat, Tx_hat, P_hat if Ty_hat is None else Ty_hat,
+                                       Ty_hat is not None, self._a, self._b, self.nu, E, F, C)
+                if nyquist:
+                    self._nyquist_lines(C, E, F)
             else:
                 for c in range(6):
                     np.multiply(A[c], E, out=C[c])
