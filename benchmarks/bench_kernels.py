@@ -5,7 +5,8 @@ one depth layer of the stresses, each beside the bare time of the transforms it 
   ``bench_contact.py`` (Gaussian transverse lay, R_q 1 µm, about 20 % contact, cold start,
   tolerance 1e-8), time per iteration (median of ``--repeat`` solves); floor: two real 2-D
   round trips (the forward and the inverse plan's ``execute`` alone, no copies, no products).
-* ``stresses``: :meth:`~micropit_hpc.mechanics.HalfSpaceStress.stresses`, 15 layers, time per
+* ``stresses``: :meth:`~micropit_hpc.mechanics.HalfSpaceStress.stresses`, 15 layers in one
+  call and one layer per call (as the streamed load cycle calls it from 256² on), time per
   layer (median); floor: one execute of the batch-6 inverse plan (six inverse transforms).
 
 Each kernel is timed with the compiled stages (Numba, where importable) and with the NumPy
@@ -94,10 +95,19 @@ def stress_rows(n: int, kernels, repeat: int, layers: int = 15):
     out = np.empty(hs.shape)
     plan = rfft_plan(grid.shape, batch=6)
     floor = per_call(plan._inv.execute, repeat, inner=max(5, 2 ** 20 // n ** 2))
+    one = np.empty((6, 1, n, n))
+
+    def streamed(kernel):
+        """One layer per call, as the streamed load cycle calls it from 256² on."""
+        for k in range(layers):
+            hs.stresses(*spectra, out=one, layers=[k], kernel=kernel)
+
     rows = []
     for kernel in kernels:
         t = per_call(lambda k=kernel: hs.stresses(*spectra, out=out, kernel=k), repeat)
-        rows.append(("stress layer", n, kernel, layers, t / layers, floor))
+        rows.append(("stress layer, 15 per call", n, kernel, layers, t / layers, floor))
+        t = per_call(lambda k=kernel: streamed(k), repeat)
+        rows.append(("stress layer, 1 per call", n, kernel, layers, t / layers, floor))
     return rows
 
 
