@@ -168,6 +168,46 @@ STALLING_PATH = np.array([
 ])
 
 
+#: A real deviator path (5-vectors of one material point over the 20 steps, Pa) of a 1024² gear
+#: load cycle (benchmarks/bench_big_window.py --cycle 1024, position 3): a closed path whose first
+#: and last points nearly coincide. The iteration stalls at a relative gap of 1.002e-9, just
+#: above ROUNDOFF_GAP, and SLSQP started from its weights stalls there too.
+CLOSED_PATH = np.array([
+    [147248301.55481085, 259504473.17980716, 188470371.56278515, 139972136.08020967,
+     104212835.37436268, 77168679.95618223, 56926531.01385486, 42428842.286001846,
+     33054319.887907308, 28447663.667961452, 28447589.61423358, 33054048.050819144,
+     42428161.37718868, 56924753.42697498, 77163571.70328303, 104201693.2323918,
+     140125337.0601731, 189693268.1894142, 257511085.85598132, 147248299.910995],
+    [-3.6500241499888574e-08, 62091814.85275395, 92145908.34160723, 111581602.44529186,
+     126526730.95387186, 138151919.601368, 146937675.30235162, 153250668.20682853,
+     157338355.43173662, 159348874.4364906, 159351524.59800637, 157348138.127765,
+     153275455.38189203, 147003275.63400128, 138349749.59913796, 127183533.10282533,
+     113256266.25422533, 93742152.15773211, 58132597.8108178, 1.3870091769957659e-06],
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+     0.0, 0.0],
+    [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0,
+     0.0, 0.0],
+    [-19531322.36400126, -66123581.41951173, -102455247.25885539, -122214115.93480857,
+     -135152836.6603062, -143645051.2449083, -149258731.23820168, -153002761.03813797,
+     -155289970.30549306, -156381588.34520876, -156382854.45278245, -155294665.15308127,
+     -153014752.590898, -149291183.7830673, -143750940.41554856, -135580804.78589562,
+     -123952121.99531886, -105681822.8313989, -88261036.44553068, -19531322.291894868],
+])
+
+
+def test_a_closed_path_the_iteration_leaves_open_is_solved_by_the_qp_fallback():
+    """The 1024² path above stopped the run after 2000 iterations; the QP fallback (from uniform
+    weights) certifies its ball to a gap below ROUNDOFF_GAP: every point inside R, the support
+    points on it."""
+    from micropit_hpc.fatigue.dangvan import ROUNDOFF_GAP, enclosing_ball
+
+    c, r, it = enclosing_ball(CLOSED_PATH[:, :, None])
+    assert it[0] == 2000
+    d2 = ((CLOSED_PATH - c) ** 2).sum(axis=0)
+    assert d2.max() <= r[0] ** 2 * (1 + 1e-12)
+    assert np.sort(d2)[-3] >= r[0] ** 2 * (1 - ROUNDOFF_GAP)   # ≥ 3 points on the sphere
+
+
 def test_a_ball_whose_gap_stalls_at_round_off_is_accepted():
     """The gap of this real path stalls between 3e-12 and 1e-11 R² (round-off), so it never met
     tol = 1e-12 and stopped a 512² run after 2000 iterations; it is accepted within
@@ -182,5 +222,37 @@ def test_a_ball_whose_gap_stalls_at_round_off_is_accepted():
     np.testing.assert_allclose(c, c_ref, rtol=0, atol=1e-14 * r_ref[0])
     np.testing.assert_allclose(r, r_ref, rtol=1e-14)
     rng = np.random.default_rng(3)
-    with pytest.raises(RuntimeError, match="not converged"):
-        enclosing_ball(rng.normal(size=(5, 30, 4)), max_iter=0)
+    bad = rng.normal(size=(5, 30, 4))
+    bad[2, 7, 1] = np.nan                       # no ball: still an error, naming the gap
+    with pytest.raises(RuntimeError, match="not converged.*largest relative gap"):
+        enclosing_ball(bad, max_iter=0)
+
+
+@pytest.mark.parametrize("kind", ["random", "flat, repeated", "symmetric"])
+def test_sets_the_iteration_leaves_open_are_solved_by_the_qp_fallback(kind, monkeypatch):
+    """Sets stopped after max_iter = 0 and 3 iterations, far from converged, are handed to the
+    dual QP (SciPy SLSQP, polished on its support): the same ball as the converged iteration's
+    to 1e-13 of the radius, on random sets, sets in a lower-dimensional flat with repeated
+    points, and centrally symmetric sets (one of 30 M points of a 1024² gear cycle stopped a
+    run before the fallback)."""
+    from micropit_hpc.fatigue import dangvan
+    from micropit_hpc.fatigue.dangvan import enclosing_ball
+
+    p = np.random.default_rng(11).normal(size=(5, 20, 6)) * 1e8 + 3e8
+    if kind == "flat, repeated":
+        p[4] = 1e8
+        p[:, 10:] = p[:, :10]
+    elif kind == "symmetric":
+        p = np.concatenate([p - 3e8, 3e8 - p], axis=1)
+    c_ref, r_ref, it_ref = enclosing_ball(p)
+    assert np.all(it_ref < 2000)
+    handed = []
+    qp = dangvan._qp_balls
+    monkeypatch.setattr(dangvan, "_qp_balls",
+                        lambda p, lam: handed.append(p.shape[2]) or qp(p, lam))
+    for max_iter in (0, 3):
+        c, r, it = enclosing_ball(p, max_iter=max_iter)
+        assert np.all(it <= max_iter)
+        np.testing.assert_allclose(r, r_ref, rtol=1e-13)
+        np.testing.assert_allclose(c, c_ref, rtol=0, atol=1e-13 * r_ref.max())
+    assert handed and handed[0] > 0             # max_iter = 0 left sets to the fallback

@@ -5,8 +5,9 @@ Each function is one pass over this rank's points that does what one stage of
 the local sums the stage needs (the solver reduces them over the group). The arithmetic per
 point is the reference's (a multiply-add may be fused, ``contract``); the sums are added in
 another order (vector lanes, ``reassoc``, where NumPy adds pairwise), so the two agree to
-round-off and both converge to the same tolerance (tests/test_kernels.py). ``parallel=False``: every core already runs an MPI rank.
-``cache=True``: compiled once per machine (``__pycache__`` or ``NUMBA_CACHE_DIR``).
+round-off and both converge to the same tolerance (tests/test_kernels.py). ``parallel=False``:
+every core already runs an MPI rank. ``cache=True``: compiled once per machine
+(``__pycache__`` or ``NUMBA_CACHE_DIR``).
 
 Arrays are this rank's (rows, ny) float64 fields, C-contiguous, passed flattened.
 """
