@@ -2,6 +2,13 @@
 
     .venv/bin/python benchmarks/bench_speed_error.py [--cases mpr,gear3,gear5] [--levels cycle,life]
         [--out benchmarks/results] [--plot docs/performance_speed_error.png] [--table-only]
+        [--knobs n] [--grid 64,128,256,512,1024]
+
+``--knobs`` runs only the knobs named; ``--grid`` replaces the cycle level's grid values (the
+big-window line of docs/performance.md §10: ``--cases gear3 --levels cycle --knobs n --grid
+64,128,256,512,1024 --out benchmarks/results/big --plot docs/performance_grid_big.png``; grids
+above the 256² realisation's own resolve no new roughness, so that line measures the
+discretisation of one band-limited surface).
 
 Three work items, k_lub = 1e-11 s: the MPR rig at |S| = 0.30 (scenes/paper_mpr_beta30.toml,
 position 3, default window 128²) and the paper's gear at positions 3 and 5
@@ -159,7 +166,10 @@ def _done(path: Path) -> set:
     return {(r["case"], r["level"], r["knob"], r["value"]) for r in rows}
 
 
-def run(cases, levels, out: Path) -> Path:
+def run(cases, levels, out: Path, knobs=None, grid=None) -> Path:
+    """Run the rows of ``cases`` × ``levels`` not yet in OUT/speed_error.csv: every knob, or
+    those named in ``knobs``; ``grid``: the cycle level's window.n values instead of
+    CYCLE_KNOBS' (e.g. 64 … 1024 for the big-window line, docs/performance.md §10)."""
     out.mkdir(parents=True, exist_ok=True)
     path = out / "speed_error.csv"
     done = _done(path)
@@ -180,9 +190,13 @@ def run(cases, levels, out: Path) -> Path:
                         "film_tol": base.lubrication.film_tol, "block_M": base.life.block / 1e6}
             lx0 = window_grid(base, reference_half_width(base_study)).lx
             for level in levels:
-                knobs, row_fn = ((CYCLE_KNOBS, cycle_row) if level == "cycle"
-                                 else (LIFE_KNOBS, life_row))
-                for knob, (section, key, values) in knobs.items():
+                table_, row_fn = ((CYCLE_KNOBS, cycle_row) if level == "cycle"
+                                  else (LIFE_KNOBS, life_row))
+                if level == "cycle" and grid:
+                    table_ = {**table_, "n": ("window", "n", list(grid))}
+                for knob, (section, key, values) in table_.items():
+                    if knobs and knob not in knobs:
+                        continue
                     for v in values:
                         if (name, level, knob, str(v)) in done:
                             continue
@@ -303,6 +317,9 @@ def main() -> None:
     ap.add_argument("--levels", default="cycle,life")
     ap.add_argument("--out", type=Path, default=ROOT / "benchmarks" / "results")
     ap.add_argument("--plot", type=Path, default=ROOT / "docs" / "performance_speed_error.png")
+    ap.add_argument("--knobs", default="", help="only these knobs (comma-separated)")
+    ap.add_argument("--grid", default="",
+                    help="the cycle level's window.n values, finest last (comma-separated)")
     ap.add_argument("--table-only", action="store_true",
                     help="run nothing: the table and plot of OUT/speed_error.csv as it is")
     args = ap.parse_args()
@@ -316,7 +333,10 @@ def main() -> None:
             ap.error(f"--levels: {lv!r} is not one of cycle, life")
     print(f"# speed against error, commit {source_commit()}, one core; "
           f"{time.strftime('%Y-%m-%d')}", flush=True)
-    path = args.out / "speed_error.csv" if args.table_only else run(cases, levels, args.out)
+    knobs = [k for k in args.knobs.split(",") if k]
+    grid = [int(v) for v in args.grid.split(",") if v]
+    path = (args.out / "speed_error.csv" if args.table_only
+            else run(cases, levels, args.out, knobs, grid))
     rows = _rows(path)
     print(table(rows))
     plot(rows, args.plot)
