@@ -166,9 +166,9 @@ def _done(path: Path) -> set:
     return {(r["case"], r["level"], r["knob"], r["value"]) for r in rows}
 
 
-def run(cases, levels, out: Path, knobs=None, grid=None) -> Path:
+def run(cases, levels, out: Path, knobs=None, grid_values=None) -> Path:
     """Run the rows of ``cases`` × ``levels`` not yet in OUT/speed_error.csv: every knob, or
-    those named in ``knobs``; ``grid``: the cycle level's window.n values instead of
+    those named in ``knobs``; ``grid_values``: the cycle level's window.n values instead of
     CYCLE_KNOBS' (e.g. 64 … 1024 for the big-window line, docs/performance.md §10)."""
     out.mkdir(parents=True, exist_ok=True)
     path = out / "speed_error.csv"
@@ -192,8 +192,8 @@ def run(cases, levels, out: Path, knobs=None, grid=None) -> Path:
             for level in levels:
                 table_, row_fn = ((CYCLE_KNOBS, cycle_row) if level == "cycle"
                                   else (LIFE_KNOBS, life_row))
-                if level == "cycle" and grid:
-                    table_ = {**table_, "n": ("window", "n", list(grid))}
+                if level == "cycle" and grid_values:
+                    table_ = {**table_, "n": ("window", "n", list(grid_values))}
                 for knob, (section, key, values) in table_.items():
                     if knobs and knob not in knobs:
                         continue

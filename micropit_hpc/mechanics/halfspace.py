@@ -55,7 +55,7 @@ VOIGT = ("xx", "yy", "zz", "yz", "xz", "xy")
 #: layers no larger than this (one layer at least), docs/performance.md "Streamed stresses".
 STRESS_CHUNK_BYTES = 64 * 2 ** 20
 
-#: The implementation of the per-layer combination that :meth:`HalfSpaceStress.stresses` uses
+#: The implementation of the per-layer spectra that :meth:`HalfSpaceStress.stresses` uses
 #: when none is given: "auto" (compiled where Numba can be imported, else NumPy), "numba" or
 #: "numpy" (:mod:`micropit_hpc.compiled`). A module-level switch for whole runs.
 DEFAULT_KERNEL = "auto"
