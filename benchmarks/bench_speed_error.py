@@ -243,8 +243,14 @@ def errors(rows: list[dict]) -> list[dict]:
     out = []
     knob_lists = {("cycle", k): v[2] for k, v in CYCLE_KNOBS.items()}
     knob_lists.update({("life", k): v[2] for k, v in LIFE_KNOBS.items()})
+    largest_n = {}      # the grid: its finest is the largest n run (--grid may extend it)
+    for q in rows:
+        if q["knob"] == "n":
+            key = (q["case"], q["level"])
+            largest_n[key] = max(largest_n.get(key, 0), int(float(q["value"])))
     for r in rows:
-        finest = str(knob_lists[(r["level"], r["knob"])][-1])
+        finest = (str(largest_n[(r["case"], r["level"])]) if r["knob"] == "n"
+                  else str(knob_lists[(r["level"], r["knob"])][-1]))
         ref = next((q for q in rows if (q["case"], q["level"], q["knob"], q["value"])
                     == (r["case"], r["level"], r["knob"], finest)), None)
         if ref is None:
