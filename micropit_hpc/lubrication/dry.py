@@ -206,7 +206,7 @@ class NumpyStages:
 class CompiledStages:
     """:class:`NumpyStages` on the compiled kernels of ``mod`` (``_dry_numba``): one pass each."""
 
-    def __init__(self, mod, shape):
+    def __init__(self, mod):
         self.k = mod
         self._none = np.zeros(1, dtype=bool)
 
@@ -234,7 +234,7 @@ def iteration_stages(shape, kernel: str | None = None):
     ``kernel`` (None: :data:`DEFAULT_KERNEL`)."""
     mod = resolve(DEFAULT_KERNEL if kernel is None else kernel, "lubrication._dry_numba",
                   "solve_dry_contact")
-    return NumpyStages(shape) if mod is None else CompiledStages(mod, shape)
+    return NumpyStages(shape) if mod is None else CompiledStages(mod)
 
 
 def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float,
