@@ -1,7 +1,9 @@
 """Big windows, measured: one gear position on n x n windows, on the ranks it is started with.
 
-For each n: the plan (scenes/gear_z23_2048.toml with window.n = n, position 3), the cycle on a
-window split over all ranks (as ``--ranks-per-item`` = all ranks does), then
+For each n: the plan (scenes/gear_z23_2048.toml with window.n = n, position 3), the cycle of one
+work item on all ranks (as ``--ranks-per-item`` = all ranks does; the contact shared as
+``--parallel`` says, cycle.contact_parallel: "steps", every rank solves whole windows, its share
+of a cycle's time steps; "slabs", each step split over the ranks' x rows), then
 
 * ``step``: one contact solve (the middle time step) and the stresses of both bodies at it;
 * ``cycle`` (with ``--cycle``): one whole load-cycle evaluation (every step's contact, the
@@ -12,6 +14,7 @@ every rank (``ru_maxrss``, the high-water mark of the process so far; the sizes 
 increasing order, so each line is that size's peak).
 
     mpirun -n 2 python benchmarks/bench_big_window.py --sizes 512 1024 --cycle 512
+    mpirun -n 2 python benchmarks/bench_big_window.py --sizes 1024 --parallel slabs
     python benchmarks/bench_big_window.py --sizes 512 1024 2048
 
 Prints one line per size and writes them to ``--csv`` (default
@@ -51,6 +54,8 @@ def main() -> int:
     ap.add_argument("--cycle", type=int, nargs="*", default=[],
                     help="sizes at which a whole load cycle is evaluated too")
     ap.add_argument("--steps", type=int, default=None, help="time steps (default the scene's)")
+    ap.add_argument("--parallel", choices=("auto", "steps", "slabs"), default="auto",
+                    help="how the ranks share the contact (cycle.contact_parallel)")
     ap.add_argument("--csv", default=None)
     args = ap.parse_args()
     comm = world()
@@ -63,7 +68,8 @@ def main() -> int:
         plan = make_plan(scene, positions=[args.position])
         comm.Barrier()
         t0 = time.perf_counter()
-        cycle = PositionCycle(plan.study, args.position, comm=comm, window=plan.window)
+        cycle = PositionCycle(plan.study, args.position, comm=comm, window=plan.window,
+                              parallel=args.parallel)
         comm.Barrier()
         t_setup = time.perf_counter() - t0
         j = cycle.steps // 2
@@ -84,7 +90,8 @@ def main() -> int:
             comm.Barrier()
             t_cycle = time.perf_counter() - t0
         peaks = comm.allgather(peak_mib())
-        row = {"n": n, "ranks": comm.size, "level": cycle.level, "steps": cycle.steps,
+        row = {"n": n, "ranks": comm.size, "contact": cycle.contact_parallel,
+               "level": cycle.level, "steps": cycle.steps,
                "layers": int(cycle.z.size), "setup_s": round(t_setup, 2),
                "contact_step_s": round(t_contact, 2), "stresses_step_s": round(t_stress, 2),
                "cycle_s": round(t_cycle, 1), "peak_MiB_per_rank": round(max(peaks)),

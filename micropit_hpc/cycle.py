@@ -53,8 +53,8 @@ from micropit_hpc.surfaces import Topography
 from micropit_hpc.surfaces.bodies import body_surface
 from micropit_hpc.wear import WearRate, archard_wear
 
-__all__ = ["BodyCycle", "CycleResult", "PositionCycle", "StepFields", "contact_split_min_cells",
-           "micro_cycles", "rainflow_steps"]
+__all__ = ["BodyCycle", "CycleResult", "PositionCycle", "StepFields", "contact_parallel",
+           "contact_split_min_cells", "micro_cycles", "rainflow_steps"]
 
 #: Windows of at least this many cells split the contact solve of a group of several ranks
 #: over its slabs (docs/hpc.md §2); smaller ones solve it on every rank of the group alike,
@@ -75,6 +75,40 @@ def contact_split_min_cells() -> int:
     except ValueError:
         raise MicropitError(f"MICROPIT_CONTACT_SPLIT_MIN_CELLS={text!r}: give a whole number "
                             "of cells") from None
+
+
+#: How a group of several ranks shares the contact of a load cycle (docs/hpc.md §2):
+#: ``"steps"``, each rank solves whole windows, the time steps j ≡ rank (mod ranks), and the
+#: step fields are then broadcast (no communication inside a solve; one rank's numbers bit for
+#: bit); ``"slabs"``, every step is solved by the whole group over its x rows
+#: (:func:`contact_split_min_cells`); ``"auto"``, steps for windows of at most
+#: :data:`STEPS_MAX_CELLS` cells, slabs above. Overridden by ``MICROPIT_CONTACT_PARALLEL``.
+CONTACT_PARALLEL = "auto"
+
+#: The largest window whose contact ``"auto"`` solves whole on each rank (steps over the
+#: group's ranks): a 1024² window's whole-window contact solvers and one load cycle's fields
+#: fit in about 3 GB per rank (docs/scaling.md); larger windows split the solve over slabs,
+#: which divides its memory by the ranks.
+STEPS_MAX_CELLS = 1024 * 1024
+
+_PARALLEL_MODES = ("auto", "steps", "slabs")
+
+
+def contact_parallel(cells: int, mode: str | None = None) -> str:
+    """``"steps"`` or ``"slabs"``: how a group shares a load cycle's contact on a window of
+    ``cells`` cells (:data:`CONTACT_PARALLEL`). ``mode``: the setting, default
+    ``MICROPIT_CONTACT_PARALLEL`` or :data:`CONTACT_PARALLEL`; ``"auto"`` is steps up to
+    :data:`STEPS_MAX_CELLS` cells, slabs above."""
+    source = "contact_parallel"
+    if mode is None:
+        mode = os.environ.get("MICROPIT_CONTACT_PARALLEL", "").strip()
+        source = "MICROPIT_CONTACT_PARALLEL"
+        mode = mode or CONTACT_PARALLEL
+    if mode not in _PARALLEL_MODES:
+        raise MicropitError(f"{source}={mode!r}: give one of {', '.join(_PARALLEL_MODES)}")
+    if mode == "auto":
+        return "steps" if cells <= STEPS_MAX_CELLS else "slabs"
+    return mode
 
 
 @dataclass(frozen=True)
@@ -158,12 +192,16 @@ class PositionCycle:
     (docs/model.md §4).
 
     ``comm``: the ranks of the work item's group (default: this rank alone). With several
-    ranks the contact of a step (dry and mixed levels) is solved by the whole group on the
-    x rows of :attr:`slab` (distributed FFTs, reductions in rank order; :meth:`solve_step`)
-    and its 2-D maps then allgathered, or, on a window of fewer than
-    :func:`contact_split_min_cells` cells, by every rank alike on the whole window; the
-    stresses are computed on each rank's x-slab (:attr:`slab`, a one-rank slab without
-    ``comm``).
+    ranks the stresses are computed on each rank's x-slab (:attr:`slab`, a one-rank slab
+    without ``comm``), and the contact is shared as ``parallel`` says
+    (:func:`contact_parallel`, the resolved value in :attr:`contact_parallel`): ``"steps"``,
+    :meth:`evaluate` gives each rank every ranks-th time step to solve on the whole window
+    and then broadcasts the step fields; ``"slabs"``, each step (dry and mixed levels) is
+    solved by the whole group on the x rows of :attr:`slab` (distributed FFTs, reductions
+    in rank order; :meth:`solve_step`) and its 2-D maps then allgathered, or, on a window of
+    fewer than :func:`contact_split_min_cells` cells, by every rank alike on the whole
+    window. A :meth:`solve_step` called alone (not from :meth:`evaluate`) is solved by every
+    rank alike under ``"steps"``.
 
     ``k_lub``: the work item's wear coefficient [s], one of ``wear.k_lub_s``. It is the cycle's
     like its position and surfaces: fixed for the item's life, and all that the cycle needs to
@@ -182,7 +220,7 @@ class PositionCycle:
     def __init__(self, study: ContactStudy, position: int,
                  surfaces: tuple[Topography, Topography] | None = None,
                  steps: int | None = None, comm=None, window: Window | None = None,
-                 k_lub: float = 0.0):
+                 k_lub: float = 0.0, parallel: str | None = None):
         scene = study.scene
         if not 1 <= position <= len(study.conditions):
             raise MicropitError(f"{scene.source}: position {position} does not exist (the "
@@ -204,9 +242,11 @@ class PositionCycle:
         self.p_lim = lub.p_lim_hardness * min(scene.body1.hardness, scene.body2.hardness)
         self.z = self.window.z
         self.slab = Slab(SerialComm() if comm is None else comm, g, self.z.size)
-        # the contact solvers work on the slab's rows, or on the whole window on every rank
-        # of the group alike where the window is too small to gain (contact_split_min_cells)
-        split = self.slab.comm.size > 1 and g.nx * g.ny >= contact_split_min_cells()
+        # the contact solvers work on the slab's rows ("slabs"), or on the whole window
+        # ("steps", or a window too small to gain from a split: contact_split_min_cells)
+        self.contact_parallel = contact_parallel(g.nx * g.ny, parallel)
+        split = (self.contact_parallel == "slabs" and self.slab.comm.size > 1
+                 and g.nx * g.ny >= contact_split_min_cells())
         self.half_spaces = ElasticHalfSpaces(g, study.E_prime, self.slab if split else None)
         self.mixed = None
         if self.level == "mixed":
@@ -531,6 +571,39 @@ class PositionCycle:
         return tau.reshape(shape), rate, low
 
     # ---- the load cycle ----------------------------------------------------------------------
+    def _contact_steps(self, warm: dict | None,
+                       on_step: Callable[[int], None] | None) -> list[StepFields]:
+        """The contact at every time step of the cycle (:meth:`evaluate`), as StepFields on
+        every rank of the group. Each step starts from its ``warm`` dict (the last evaluation's
+        solution at that step) or cold, never from the step before, so that a step's solution
+        does not depend on which rank solved which steps: ``"steps"`` on any number of ranks
+        gives one rank's numbers bit for bit. Under ``"steps"`` with several ranks, rank r
+        solves the steps j ≡ r (mod ranks) on the whole window, without communication, and
+        the step fields are then broadcast from their solver in step order; the first error
+        of any rank (the lowest step's) is raised on every rank of the group."""
+        comm = self.slab.comm
+        share = self.contact_parallel == "steps" and comm.size > 1
+        first, stride = (comm.rank, comm.size) if share else (0, 1)
+        mine, error = {}, None
+        for j in range(first, self.steps, stride):
+            try:
+                with event("contact"):
+                    mine[j] = self.solve_step(
+                        j, None, None if warm is None else warm.setdefault(j, {}))
+            except MicropitError as e:
+                if not share:
+                    raise
+                error = (j, e)
+                break
+            if on_step is not None:
+                on_step(j + 1)
+        if not share:
+            return [mine[j] for j in range(self.steps)]
+        failed = [e for e in comm.allgather(error) if e is not None]
+        if failed:
+            raise min(failed, key=lambda f: f[0])[1]
+        return [comm.bcast(mine.get(j), root=j % comm.size) for j in range(self.steps)]
+
     def evaluate(self, surfaces: tuple[Topography, Topography],
                  pits: tuple[np.ndarray, np.ndarray] | None = None, warm: dict | None = None,
                  on_step: Callable[[int], None] | None = None) -> CycleResult:
@@ -549,20 +622,14 @@ class PositionCycle:
         evaluation to the next (:meth:`solve_step`); :func:`~micropit_hpc.life.run_block`
         keeps them within a block and starts each block without, so that a run restarted from
         a block's checkpoint repeats the straight run's numbers exactly. ``on_step(j)``:
-        called after time step j (1-based) of the contact, for progress reports."""
+        called after each time step j (1-based) of the contact that this rank solves, for
+        progress reports."""
         t0 = time.perf_counter()
         g, fat = self.grid, self.scene.fatigue
         self.set_surfaces(surfaces, pits)
         lam = tuple(s.peak_spacing_x(fat.peak_spacing_min_cells * g.dx) if s.rq > 0
                     else math.inf for s in self.surfaces)
-        fields, p_prev = [], None
-        for j in range(self.steps):
-            with event("contact"):
-                f = self.solve_step(j, p_prev, None if warm is None else warm.setdefault(j, {}))
-            fields.append(f)
-            p_prev = f.pressure
-            if on_step is not None:
-                on_step(j + 1)
+        fields = self._contact_steps(warm, on_step)
         p_sum = sum(float(f.pressure.sum()) for f in fields)
         weights = np.array([f.p_mean for f in fields])
         phi = (float((weights * [f.phi for f in fields]).sum() / weights.sum())

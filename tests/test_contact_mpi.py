@@ -11,6 +11,7 @@ the other).
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -132,7 +133,7 @@ def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model, monkeyp
     scene = scene_from_dict(doc, "tiny.toml")
     study = contact_study(scene)
     one = PositionCycle(study, 1)
-    split = PositionCycle(study, 1, comm=comm)
+    split = PositionCycle(study, 1, comm=comm, parallel="slabs")
     ok = split.slab.nx_local == (14 if comm.rank == 0 else 13) and split.half_spaces.distributed
     ok = ok and split.level == one.level == ("mixed" if model == "auto" else "dry")
     worst, iters = 0.0, []
@@ -180,7 +181,7 @@ def test_a_small_window_solves_its_contact_on_every_rank_alike_as_one_rank(monke
     doc["lubrication"] = {"model": "dry"}
     study = contact_study(scene_from_dict(doc, "tiny.toml"))
     one = PositionCycle(study, 1)
-    split = PositionCycle(study, 1, comm=comm)
+    split = PositionCycle(study, 1, comm=comm, parallel="slabs")
     ok = split.grid.nx * split.grid.ny < contact_split_min_cells()
     ok = ok and split.slab.comm.size == 2 and not split.half_spaces.distributed
     p1 = p2 = None
@@ -190,4 +191,47 @@ def test_a_small_window_solves_its_contact_on_every_rank_alike_as_one_rank(monke
         ok = ok and a.iterations == b.iterations and all(
             np.array_equal(x, y) for x, y in ((a.pressure, b.pressure),
                                               (a.clearance, b.clearance)))
+    assert agree(comm, ok)
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.timeout(300)
+def test_a_cycle_shares_its_time_steps_over_the_ranks_with_one_ranks_numbers():
+    """``contact_parallel = "steps"``: rank r solves the steps j ≡ r (mod 2) on the whole
+    window and the fields are broadcast: every step's fields equal one rank's bit for bit on
+    every rank, in two passes (the second warm-started from the first's ``warm`` dicts), each
+    rank solved only its own steps, and a solver error on one rank's step is raised on both."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["window"]["n"] = 27
+    study = contact_study(scene_from_dict(doc, "tiny.toml"))
+    one = PositionCycle(study, 1)
+    shared = PositionCycle(study, 1, comm=comm, parallel="steps")
+    ok = shared.contact_parallel == "steps" and not shared.half_spaces.distributed
+    ok = ok and shared.level == one.level == "mixed"
+    warm1, warm2 = {}, {}
+    for _ in range(2):
+        solved = []
+        a = one._contact_steps(warm1, None)
+        b = shared._contact_steps(warm2, solved.append)
+        ok = ok and solved == list(range(comm.rank + 1, one.steps + 1, comm.size))
+        ok = ok and sorted(warm2) == [j - 1 for j in solved]
+        for x, y in zip(a, b, strict=True):
+            ok = ok and x.iterations == y.iterations and x.phi == y.phi
+            ok = ok and all(np.array_equal(u, v) for u, v in (
+                (x.pressure, y.pressure), (x.clearance, y.clearance),
+                (x.traction1, y.traction1), (x.solid, y.solid)))
+    # a solve that cannot converge on the steps of rank 1 only: both ranks raise its error
+    scene = scene_from_dict(doc, "tiny.toml")
+    if comm.rank == 1:      # below the scene's range (10): set past the reader
+        scene = replace(scene, lubrication=replace(scene.lubrication, max_iter=2))
+    failing = PositionCycle(contact_study(scene), 1, comm=comm, parallel="steps")
+    raised = None
+    try:
+        failing._contact_steps(None, None)
+    except ContactError as e:
+        raised = str(e)
+    ok = ok and raised is not None and raised == comm.bcast(raised, root=1)
     assert agree(comm, ok)

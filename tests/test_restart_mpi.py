@@ -102,6 +102,8 @@ def test_a_window_split_over_two_ranks_equals_one_rank(shared_dir):
                       comm)
     ok = split.study.group.size == 2 and split.start_block == 1
     ok = ok and split.study.runs[0].cycle.slab.nx_local == (14 if comm.rank == 0 else 13)
+    # the contact's time steps shared over the group's ranks (cycle.contact_parallel "auto")
+    ok = ok and split.study.runs[0].cycle.contact_parallel == "steps"
     straight = run_study(scene, RunOptions(out=shared_dir / "s", ranks_per_item=2), comm)
     recs_r, maps_r = outcome_data(split)
     recs_s, maps_s = outcome_data(straight)
