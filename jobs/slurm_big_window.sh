@@ -10,7 +10,9 @@
 #   POSITION=1 sbatch --nodes=8 jobs/slurm_big_window.sh my_scene.toml
 #
 # Every rank of the job holds a slab of the window's x rows (--ranks-per-item = all ranks):
-# the contact, the stresses, Dang Van and the damage are computed on the slabs; the checkpoints
+# the contact (above 1024^2 cells; up to that each rank solves whole windows, its share of a
+# load cycle's time steps: MICROPIT_CONTACT_PARALLEL=auto|steps|slabs, docs/hpc.md section 2),
+# the stresses, Dang Van and the damage are computed on the slabs; the checkpoints
 # are written collectively (parallel HDF5). Everything else — the environment check, the
 # wall-time budget, the signal forwarding, checkpoint-and-requeue with exit 85 — is
 # jobs/slurm_array.sh's, which this script runs in positions mode for the one position.
