@@ -122,6 +122,22 @@ def test_history_chunk_layers_follows_the_budget():
     assert history_chunk_layers(1, 20, 64 * 64, 0.0) == 1
 
 
+def test_contact_parallel_resolves_auto_by_window_size_and_refuses_other_words(monkeypatch):
+    monkeypatch.delenv("MICROPIT_CONTACT_PARALLEL", raising=False)
+    big = cycle_module.STEPS_MAX_CELLS
+    assert cycle_module.contact_parallel(64 * 64) == "steps"
+    assert cycle_module.contact_parallel(big) == "steps"
+    assert cycle_module.contact_parallel(big + 1) == "slabs"
+    assert cycle_module.contact_parallel(64 * 64, "slabs") == "slabs"
+    assert cycle_module.contact_parallel(4 * big, "steps") == "steps"
+    monkeypatch.setenv("MICROPIT_CONTACT_PARALLEL", "slabs")
+    assert cycle_module.contact_parallel(64 * 64) == "slabs"
+    assert cycle_module.contact_parallel(64 * 64, "auto") == "steps"   # the argument wins
+    monkeypatch.setenv("MICROPIT_CONTACT_PARALLEL", "step")
+    with pytest.raises(MicropitError, match=r"MICROPIT_CONTACT_PARALLEL='step'.*auto, steps"):
+        cycle_module.contact_parallel(64 * 64)
+
+
 @pytest.mark.parametrize("counting", ["sliding", "rainflow"])
 def test_streamed_stresses_equal_the_whole_history_bitwise(tmp_path, counting, monkeypatch):
     """evaluate streams the stress history through depth in chunks of layers (Dang Van and the
