@@ -258,16 +258,6 @@ class HalfSpaceStress:
         if r is not None and c is not None:
             average(((r,), (c,)), ((1, 1), (-1, 1), (1, -1), (-1, -1)))
 
-    def _nyquist_lines(self, C, E, F):
-        """C_c = E A_c + F B_c on the Nyquist row and column, from the symmetrised kernels that
-        :meth:`_symmetrise` left in A, B there (the compiled pass formed the unsymmetrised
-        ones)."""
-        A, B, r, c = self._A, self._B, self._nyq_row, self._nyq_col
-        if r is not None:
-            C[:, r] = A[:, r] * E[r] + B[:, r] * F[r]
-        if c is not None:
-            C[:, :, c] = A[:, :, c] * E[:, c] + B[:, :, c] * F[:, c]
-
     def stresses(self, P_hat, Tx_hat, Ty_hat=None, out=None, layers=None,
                  kernel: str | None = None) -> np.ndarray:
         """Stresses (6, N_z, nx, ny) of the fluctuating surface tractions (docs/model.md A.1).
@@ -298,18 +288,17 @@ class HalfSpaceStress:
                            "mechanics._halfspace_numba", "HalfSpaceStress.stresses")
         if compiled is None:   # the reference: the twelve kernel planes once per call
             _kernel_spectra(P_hat, Tx_hat, Ty_hat, self._a, self._b, self.nu, self._A, self._B)
-        nyquist = self._nyq_row is not None or self._nyq_col is not None
-        if nyquist:            # (the compiled pass takes the symmetrised lines from A, B)
-            self._symmetrise(P_hat, Tx_hat, Ty_hat)
+            if self._nyq_row is not None or self._nyq_col is not None:
+                self._symmetrise(P_hat, Tx_hat, Ty_hat)
         A, B, C = self._A, self._B, self._C
         plan, T = self._plan, self._T
+        nyq = tuple(-1 if n is None else n for n in (self._nyq_row, self._nyq_col))
         for kk, k in enumerate(idx):
             E, F = self._E[k], self._F[k]
             if compiled is not None:   # C_c = E A_c + ζz E B_c, kernels formed on the fly
                 compiled.layer_spectra(P_hat, Tx_hat, P_hat if Ty_hat is None else Ty_hat,
-                                       Ty_hat is not None, self._a, self._b, self.nu, E, F, C)
-                if nyquist:
-                    self._nyquist_lines(C, E, F)
+                                       Ty_hat is not None, self._a, self._b, self.nu, E, F,
+                                       *nyq, C)
             else:
                 for c in range(6):
                     np.multiply(A[c], E, out=C[c])
