@@ -167,8 +167,10 @@ class HalfSpaceStress:
     window, pyFFTW.
 
     Memory: two real per-layer factors (2·N_z·nx·(ny/2+1) float64: 34 MB at 256² × 32 layers,
-    135 MB at 512² × 32) plus 22 complex half-spectrum planes of scratch (and the cached plans'
-    buffers); the inverse transforms go layer by layer through one batch-6 plan, so no
+    135 MB at 512² × 32) plus 9 complex half-spectrum planes of scratch (the layer's six spectra,
+    on one rank the batch plan's own input buffer, and three traction spectra), 13 more once
+    the NumPy reference path runs (its twelve kernel planes and one temporary), and the cached
+    plans' buffers; the inverse transforms go layer by layer through one batch-6 plan, so no
     (6·N_z)-plane spectral buffer is ever held (one batch of 6·N_z planes was also slower:
     benchmarks/README.md).
     """
@@ -213,13 +215,11 @@ class HalfSpaceStress:
         self._nyq_row = nx // 2 if grid.nx % 2 == 0 else None
         last = nyh - 1 - cols.start
         self._nyq_col = last if grid.ny % 2 == 0 and 0 <= last < ncols else None
-        # scratch
-        self._A = np.empty((6, nx, ncols), dtype=complex)
-        self._B = np.empty((6, nx, ncols), dtype=complex)
+        # scratch (the NumPy path's kernel planes: _reference_planes, made on first use)
         self._C = (np.empty((6, nx, ncols), dtype=complex) if self._plan is None
                    else self._plan.spectral_input)
-        self._T = np.empty((nx, ncols), dtype=complex)
         self._spec = np.empty((3, nx, ncols), dtype=complex)
+        self._planes = None
 
     @property
     def n_layers(self) -> int:
@@ -230,9 +230,19 @@ class HalfSpaceStress:
         """Shape of a result: (6, N_z, rows of the slab, ny) — (6, N_z, nx, ny) on one rank."""
         return (6, self.z.size, self.slab.nx_local, self.grid.ny)
 
+    def _reference_planes(self):
+        """(A, B, T): the twelve kernel planes of the NumPy path and its one temporary plane,
+        allocated on first use (the compiled path forms the kernels on the fly and needs
+        none: 13 complex planes, about 110 MB at 1024²)."""
+        if self._planes is None:
+            shape = self._a.shape
+            self._planes = (np.empty((6, *shape), dtype=complex),
+                            np.empty((6, *shape), dtype=complex), np.empty(shape, dtype=complex))
+        return self._planes
+
     def _symmetrise(self, P, Tx, Ty):
         """Replace A, B on the Nyquist row/column by their average over ±α (±β)."""
-        A, B, a, b, nu = self._A, self._B, self._a, self._b, self.nu
+        (A, B, _), a, b, nu = self._reference_planes(), self._a, self._b, self.nu
         r, c = self._nyq_row, self._nyq_col
 
         def average(sl, flips):
@@ -272,7 +282,7 @@ class HalfSpaceStress:
         kernels stored once per call (:mod:`micropit_hpc.compiled`; None:
         :data:`DEFAULT_KERNEL`); the two agree to round-off.
         """
-        ss = self._A.shape[1:]
+        ss = self._a.shape
         for name, s in (("P_hat", P_hat), ("Tx_hat", Tx_hat), ("Ty_hat", Ty_hat)):
             if s is not None and np.shape(s) != ss:
                 raise ValueError(f"{name} has shape {np.shape(s)}, expected {ss}")
@@ -287,11 +297,11 @@ class HalfSpaceStress:
         compiled = resolve(DEFAULT_KERNEL if kernel is None else kernel,
                            "mechanics._halfspace_numba", "HalfSpaceStress.stresses")
         if compiled is None:   # the reference: the twelve kernel planes once per call
-            _kernel_spectra(P_hat, Tx_hat, Ty_hat, self._a, self._b, self.nu, self._A, self._B)
+            A, B, T = self._reference_planes()
+            _kernel_spectra(P_hat, Tx_hat, Ty_hat, self._a, self._b, self.nu, A, B)
             if self._nyq_row is not None or self._nyq_col is not None:
                 self._symmetrise(P_hat, Tx_hat, Ty_hat)
-        A, B, C = self._A, self._B, self._C
-        plan, T = self._plan, self._T
+        C, plan = self._C, self._plan
         nyq = tuple(-1 if n is None else n for n in (self._nyq_row, self._nyq_col))
         for kk, k in enumerate(idx):
             E, F = self._E[k], self._F[k]
