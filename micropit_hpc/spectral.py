@@ -33,8 +33,8 @@ try:  # pragma: no cover - which branch runs depends on the installation
 except ImportError:  # pragma: no cover
     pyfftw = None
 
-__all__ = ["Grid", "RealFFT2", "fourier_shift", "have_pyfftw", "is_5smooth", "next_5smooth",
-           "rfft_plan", "to_material_frame"]
+__all__ = ["Grid", "RealFFT2", "fourier_shift", "have_pyfftw", "interleave", "is_5smooth",
+           "next_5smooth", "rfft_plan", "to_material_frame"]
 
 
 def have_pyfftw() -> bool:
@@ -213,8 +213,7 @@ class RealFFT2:
         """A real transfer function (``spectral_shape``) laid out for :meth:`convolve`: divided
         by the transform size nx·ny (so that the inverse needs no normalising pass) and each
         value twice, for the real and the imaginary part of its mode."""
-        scaled = np.asarray(transfer, dtype=float) / (self.shape[0] * self.shape[1])
-        return np.repeat(scaled, 2, axis=-1)
+        return interleave(transfer, self.shape[0] * self.shape[1])
 
     def convolve(self, transfer: np.ndarray, a: np.ndarray | None = None) -> np.ndarray:
         """irfft2(rfft2(a) · T) for the real transfer function T that ``transfer`` holds in the
@@ -252,6 +251,15 @@ class RealFFT2:
             return np.fft.irfft2(self._spec_in, s=self.shape) * (self.shape[0] * self.shape[1])
         self._inv.execute()
         return self._inv.output_array
+
+
+def interleave(transfer: np.ndarray, size: int) -> np.ndarray:
+    """A real transfer function on half-spectrum modes, divided by the transform ``size``
+    nx·ny and each value twice, for the real and the imaginary part of its mode: the layout in
+    which one real multiply over a spectrum's floats applies it and the inverse needs no
+    normalising pass (:meth:`RealFFT2.convolve`,
+    :meth:`~micropit_hpc.parallel.slab.Slab.filtered`)."""
+    return np.repeat(np.asarray(transfer, dtype=float) / size, 2, axis=-1)
 
 
 _PLANS: dict[tuple, RealFFT2] = {}

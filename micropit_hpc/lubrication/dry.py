@@ -125,7 +125,8 @@ class ElasticHalfSpaces:
         on the whole window on this rank (not collective), with or without a slab."""
         unit = np.zeros(self.grid.shape)
         unit[0, 0] = 1.0
-        return float(self._fft.convolve(self._fft.interleaved(self.compliance), unit)[0, 0])
+        transfer = self._transfer if self._serial else self._fft.interleaved(self.compliance)
+        return float(self._fft.convolve(transfer, unit)[0, 0])
 
     @cached_property
     def stiffness(self) -> np.ndarray:

@@ -29,7 +29,7 @@ from __future__ import annotations
 import numpy as np
 
 from micropit_hpc.errors import MicropitError
-from micropit_hpc.spectral import Grid, planner_flag, rfft_plan
+from micropit_hpc.spectral import Grid, interleave, planner_flag, rfft_plan
 
 __all__ = ["Reductions", "Slab"]
 
@@ -123,8 +123,7 @@ class Slab:
         """The columns :attr:`cols` of a whole-window real transfer function (``(nx, ny//2+1)``)
         laid out for :meth:`filtered`: divided by nx·ny and each value twice (real and
         imaginary part of its mode)."""
-        local = np.asarray(transfer, dtype=float)[:, self.cols]
-        return np.repeat(local / (self.grid.nx * self.grid.ny), 2, axis=-1)
+        return interleave(np.asarray(transfer)[:, self.cols], self.grid.nx * self.grid.ny)
 
     def inverse6(self, c: np.ndarray, out: np.ndarray) -> np.ndarray:
         """Six inverse transforms (normalised): local spectra ``c`` (6, n_x, len(cols)) into
