@@ -9,7 +9,9 @@ per layer, which in a streamed load cycle (one layer per call, docs/performance.
 about as much as the layer's transforms. The same formulas; the products are grouped
 otherwise, so the two agree to round-off (tests/test_kernels.py). The Nyquist row and column
 of an even axis are symmetrised in the same pass. ``parallel=False``: every core
-already runs an MPI rank. ``cache=True``: compiled once per machine.
+already runs an MPI rank. ``cache=True``: compiled once per machine. The helpers are plain
+``@njit`` functions, inlined by LLVM: Numba's IR-level ``inline="always"`` made the first
+compilation take minutes (docs/performance.md §10).
 """
 
 from __future__ import annotations
@@ -17,7 +19,7 @@ from __future__ import annotations
 from numba import njit
 
 
-@njit(cache=True, fastmath={"contract"}, inline="always")
+@njit(cache=True, fastmath={"contract"})
 def _mode(pr, pi, xr, xi, yr, yi, aa, bb, nu, e, f):
     """E A_c + F B_c, c = 0 … 5, of one mode at the angle factors aa, bb, as (real, imaginary)
     pairs: the complex formulas of :func:`~micropit_hpc.mechanics.halfspace._kernel_spectra`
@@ -43,7 +45,7 @@ def _mode(pr, pi, xr, xi, yr, yi, aa, bb, nu, e, f):
             e * (ab * pi - bb * xr - aa * yr - n2 * ab * qi) - f * ab * qi)
 
 
-@njit(cache=True, fastmath={"contract"}, inline="always")
+@njit(cache=True, fastmath={"contract"})
 def _add(v, w):
     return (v[0] + w[0], v[1] + w[1], v[2] + w[2], v[3] + w[3], v[4] + w[4], v[5] + w[5],
             v[6] + w[6], v[7] + w[7], v[8] + w[8], v[9] + w[9], v[10] + w[10], v[11] + w[11])
@@ -75,7 +77,7 @@ def layer_spectra(P, Tx, Ty, has_ty, a, b, nu, E, F, nyq_row, nyq_col, out):
                                                False, True))
 
 
-@njit(cache=True, fastmath={"contract"}, inline="always")
+@njit(cache=True, fastmath={"contract"})
 def _point(P, Tx, Ty, has_ty, a, b, nu, E, F, i, j, flip_a, flip_b):
     """The 12 parts of mode (i, j), averaged over ±a (``flip_a``) and ±b (``flip_b``)."""
     p = P[i, j]
@@ -101,7 +103,7 @@ def _point(P, Tx, Ty, has_ty, a, b, nu, E, F, i, j, flip_a, flip_b):
             w * v[6], w * v[7], w * v[8], w * v[9], w * v[10], w * v[11])
 
 
-@njit(cache=True, inline="always")
+@njit(cache=True)
 def _store(out, i, j, v):
     out[0, i, j] = complex(v[0], v[1])
     out[1, i, j] = complex(v[2], v[3])
