@@ -7,11 +7,15 @@ execute_inverse) against plain NumPy FFTs; the fallback where Numba is missing
 from __future__ import annotations
 
 import os
+import subprocess
 import sys
 
 import numpy as np
 import pytest
+from conftest import ROOT
 from test_dry_contact import E_PRIME, _rough
+from test_life import tiny_doc
+from test_run import _write_scene
 
 from micropit_hpc import compiled
 from micropit_hpc.lubrication import dry
@@ -170,12 +174,6 @@ def test_a_first_run_compiles_every_kernel_from_an_empty_cache_without_hanging(t
     made its cold compilation take minutes and a first run time out in CI, hidden here by a
     warm ``__pycache__``. The limit is a hang guard, several times the measured cold run
     (docs/performance.md §10), not a timing claim."""
-    import subprocess
-
-    from conftest import ROOT
-    from test_life import tiny_doc
-    from test_run import _write_scene
-
     scene = _write_scene(tmp_path / "t.toml", tiny_doc(slide_roll=(0.3,)))
     cache = tmp_path / "numba-cache"
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_"))}
