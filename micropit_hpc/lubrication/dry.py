@@ -80,11 +80,10 @@ class ElasticHalfSpaces:
         self.compliance[0, 0] = 0.0
         self._fft = rfft_plan(grid.shape)
         self.slab = slab
-        self._serial = slab is None or slab.comm.size == 1
-        # serial: the transforms' 1/(nx·ny) folded into the transfer (RealFFT2.convolve);
-        # distributed: the slab's columns, mpi4py-fft normalising its own inverse
-        self._transfer = (self._fft.interleaved(self.compliance) if self._serial
-                          else slab.interleaved(self.compliance))
+        # the transforms' 1/(nx·ny) folded into the transfer, each value twice
+        # (RealFFT2.convolve); distributed: only the slab's k_y columns (Slab.filtered)
+        self._transfer = (slab.interleaved(self.compliance) if self.distributed
+                          else self._fft.interleaved(self.compliance))
 
     @property
     def rows(self) -> slice:
@@ -105,14 +104,14 @@ class ElasticHalfSpaces:
     def input_buffer(self) -> np.ndarray | None:
         """Where :meth:`response` reads its field when called without one: the serial
         transform's own input buffer (whole window), or None when the rows are distributed."""
-        return self._fft.real_input if self._serial else None
+        return None if self.distributed else self._fft.real_input
 
     def response(self, p: np.ndarray | None = None) -> np.ndarray:
         """u(p) as :meth:`displacement`, without the copy out: a view of the transform's
         output buffer (or the slab's), overwritten by the next transform; ``p`` None takes the
         field already written into :attr:`input_buffer` (serial only). Collective with a slab.
         """
-        if self._serial:
+        if not self.distributed:
             return self._fft.convolve(self._transfer, p)
         return self.slab.filtered(p, self._transfer)
 
@@ -125,7 +124,7 @@ class ElasticHalfSpaces:
         on the whole window on this rank (not collective), with or without a slab."""
         unit = np.zeros(self.grid.shape)
         unit[0, 0] = 1.0
-        transfer = self._transfer if self._serial else self._fft.interleaved(self.compliance)
+        transfer = self._fft.interleaved(self.compliance) if self.distributed else self._transfer
         return float(self._fft.convolve(transfer, unit)[0, 0])
 
     @cached_property
