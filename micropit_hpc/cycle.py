@@ -51,7 +51,7 @@ from micropit_hpc.plan import Window, choose_level
 from micropit_hpc.spectral import fourier_shift, rfft_plan, to_material_frame
 from micropit_hpc.surfaces import Topography
 from micropit_hpc.surfaces.bodies import body_surface
-from micropit_hpc.wear import WearRate, archard_wear
+from micropit_hpc.wear import WearRate, archard_wear, solid_weight
 
 __all__ = ["BodyCycle", "CycleResult", "PositionCycle", "StepFields", "contact_parallel",
            "contact_split_min_cells", "micro_cycles", "rainflow_steps"]
@@ -604,6 +604,32 @@ class PositionCycle:
             raise min(failed, key=lambda f: f[0])[1]
         return [comm.bcast(mine.get(j), root=j % comm.size) for j in range(self.steps)]
 
+    def wear_of(self, fields: list[StepFields], body: int) -> WearRate:
+        """The Archard wear per load cycle of ``body`` in its material frame over the cycle of
+        ``fields`` (:func:`~micropit_hpc.wear.archard_wear`, docs/model.md §4.6)."""
+        c = self.cond
+        own, other = ((self.scene.body1, self.scene.body2) if body == 1
+                      else (self.scene.body2, self.scene.body1))
+        with event("wear_rate"):
+            h_min, ramp = self.scene.lubrication.h_min, self.scene.wear.solid_ramp * c.hc
+            return archard_wear([f.pressure for f in fields],
+                                [solid_weight(f.clearance, h_min, ramp) if self.level != "smooth"
+                                 else f.solid for f in fields],
+                                [self.slip(body, f.t) for f in fields], self.grid.dx, c.u_s,
+                                own.hardness, other.hardness, self.k_lub,
+                                self.scene.wear.f_w, self.half_spaces.self_compliance)
+
+    def wear_rates(self, surfaces: tuple[Topography, Topography],
+                   pits: tuple[np.ndarray, np.ndarray] | None = None,
+                   warm: dict | None = None) -> tuple[WearRate, WearRate]:
+        """A contact-only load cycle on ``surfaces``: the contact at every step and the Archard
+        wear per cycle of both bodies, no stresses and no Dang Van (the iterations of the
+        implicit wear, :mod:`micropit_hpc.implicit_wear`). Collective like :meth:`evaluate`,
+        with the same arguments; the returned rates are the same on every rank."""
+        self.set_surfaces(surfaces, pits)
+        fields = self._contact_steps(warm, None)
+        return self.wear_of(fields, 1), self.wear_of(fields, 2)
+
     def evaluate(self, surfaces: tuple[Topography, Topography],
                  pits: tuple[np.ndarray, np.ndarray] | None = None, warm: dict | None = None,
                  on_step: Callable[[int], None] | None = None) -> CycleResult:
@@ -639,7 +665,7 @@ class PositionCycle:
         in_contact = sum(int(np.count_nonzero(f.pressure > 0.0)) for f in fields)
         plastic = (sum(int(np.count_nonzero(f.pressure >= at_lim)) for f in fields) / in_contact
                    if in_contact else 0.0)
-        c, sn = self.cond, self.woehler
+        sn = self.woehler
         out = []
         rainflow = fat.counting == "rainflow"
         for body in (1, 2):
@@ -656,13 +682,7 @@ class PositionCycle:
                 with event("damage_rate"):
                     rate = sn.damage(tau_smooth) + n_mu * sn.damage(tau)
                     low = sn.low_damage(tau_smooth) + n_mu * sn.low_damage(tau)
-            own, other = ((self.scene.body1, self.scene.body2) if body == 1
-                          else (self.scene.body2, self.scene.body1))
-            with event("wear_rate"):
-                wear = archard_wear([f.pressure for f in fields], [f.solid for f in fields],
-                                    [self.slip(body, f.t) for f in fields], g.dx, c.u_s,
-                                    own.hardness, other.hardness, self.k_lub,
-                                    self.scene.wear.f_w, self.half_spaces.self_compliance)
+            wear = self.wear_of(fields, body)
             out.append(BodyCycle(damage_rate=rate, wear=wear, tau_rough=tau,
                                  tau_smooth=tau_smooth, n_micro=n_mu, lam_c=lam_c,
                                  damage_low=np.broadcast_to(low, rate.shape)))

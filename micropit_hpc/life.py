@@ -38,10 +38,16 @@ depth, then the pit check. In that scheme the wear–fatigue competition depends
 whose life is shorter than the time wear needs to reach it still escapes if the block's wear
 removes it before the check (docs/life.md, "Two time integrations").
 
-**Wear integration [choice]** (``wear_integration``, :mod:`micropit_hpc.wear`): the wear of a
-sub-block is ``relaxed`` (default: the stiff solid-contact part integrated as the linearised
-pressure relief it causes) or ``explicit`` (n Δh_i, docs/model.md §4.6 as written). The split's
-wear limit applies to the integrated depth.
+**Wear integration [decision]** (``wear_integration``): in the adaptive integration the wear
+of a sub-block is ``implicit`` by default (:func:`implicit_sub_block`,
+:mod:`micropit_hpc.implicit_wear`): backward-Euler steps whose worn depth is consistent with
+the contact solved on the worn surfaces, with their own accuracy control inside the sub-block
+(contact-only load cycles; the damage stays on the sub-block's full evaluation), and the
+sub-block ends once its wear has changed a surface's shape by ``max_wear_fraction`` × R_q.
+``relaxed`` (the stiff solid-contact part relieved by one grid cell's compliance, so its
+depth follows the cell size) and ``explicit`` (n Δh_i) stay as documented, not converged,
+options; the split's wear limit then applies to their integrated depth. The paper's
+integration always wears explicitly (its literal numerics).
 
 Units: SI (metres, pascals, cycles). No I/O. **Collective** over the work item's group (the
 ranks of ``cycle.slab.comm``): :func:`run_block` (the load-cycle evaluation: contact and
@@ -65,6 +71,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter
 
 from micropit_hpc.cycle import CycleResult, PositionCycle
+from micropit_hpc.implicit_wear import backward_euler, next_length
 from micropit_hpc.parallel.petsc import event
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.pits import detach, shift_columns
@@ -106,6 +113,20 @@ def initial_state(cycle: PositionCycle) -> LifeState:
 PIT_FILL_CELLS = 2.0
 
 
+def _around(values: np.ndarray, pitted: np.ndarray) -> np.ndarray:
+    """``values`` with each pitted column replaced by the local mean of the intact columns
+    around it (a Gaussian of :data:`PIT_FILL_CELLS` cells, periodic, normalised over the intact
+    columns; the mean of all intact columns inside a pit too large for it)."""
+    if not pitted.any() or pitted.all():
+        return values
+    intact = (~pitted).astype(float)
+    weight = gaussian_filter(intact, PIT_FILL_CELLS, mode="wrap")
+    local = gaussian_filter(values * intact, PIT_FILL_CELLS, mode="wrap")
+    around = np.where(weight > 1e-3, local / np.maximum(weight, 1e-300),
+                      values[~pitted].mean())
+    return np.where(pitted, around, values)
+
+
 def _around_pits(bs: BodyState) -> np.ndarray:
     """The surface the contact sees with unloaded pits: each pitted column at the height it
     had before its pit (heights + pit depth), lowered by the wear it has missed since.
@@ -121,12 +142,7 @@ def _around_pits(bs: BodyState) -> np.ndarray:
     h = bs.heights + bs.pit_depth
     if not bs.pitted.any() or bs.pitted.all() or not bs.wear.any():
         return h
-    intact = (~bs.pitted).astype(float)
-    weight = gaussian_filter(intact, PIT_FILL_CELLS, mode="wrap")
-    local = gaussian_filter(bs.wear * intact, PIT_FILL_CELLS, mode="wrap")
-    around = np.where(weight > 1e-3, local / np.maximum(weight, 1e-300),
-                      bs.wear[~bs.pitted].mean())
-    return np.where(bs.pitted, h - np.maximum(around - bs.wear, 0.0), h)
+    return h - np.maximum(_around(bs.wear, bs.pitted) - bs.wear, 0.0)
 
 
 def contact_surfaces(state: LifeState, grid: Grid, pit_contact: str
@@ -144,15 +160,18 @@ def contact_surfaces(state: LifeState, grid: Grid, pit_contact: str
 
 
 def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray, slab: Slab,
-                 wear_integration: str) -> list[BodyStep]:
+                 wear_integration: str,
+                 depths: tuple[np.ndarray, np.ndarray] | None = None) -> list[BodyStep]:
     """Advance both bodies by ``n`` load cycles at the rates of ``result`` (in place):
-    Miner's rule, wear (heights down, damage columns up; ``life.wear_integration``), then
+    Miner's rule, wear (heights down, damage columns up; ``life.wear_integration``: the
+    sub-block's worn ``depths`` where the implicit update solved them, else the rates of
+    ``result`` integrated by :meth:`WearRate.depth <micropit_hpc.wear.WearRate.depth>`), then
     micropits (docs/model.md §4.4–§4.6). ``slab``: the rows of the damage this rank holds
     (:attr:`PositionCycle.slab`); the pits found on each slab are shared so that every rank
     keeps the whole surface. Collective. Returns what it did to each body (:class:`BodyStep`)."""
     done = []
     rows = slab.rows
-    for bs, bc in zip(state.bodies, result.bodies, strict=True):
+    for i, (bs, bc) in enumerate(zip(state.bodies, result.bodies, strict=True)):
         added = n * bc.damage_rate
         low = None if bc.damage_low is None else n * bc.damage_low
         bs.damage += added
@@ -162,7 +181,10 @@ def apply_cycles(state: LifeState, result: CycleResult, n: float, z: np.ndarray,
         else:
             top = np.argmax(bs.damage, axis=0)[None]
             low_col = 2.0 * np.take_along_axis(low, top, 0)[0] > bs.damage.max(axis=0)
-        dh = bc.wear.depth(n, wear_integration)
+        if depths is None and wear_integration == "implicit":
+            raise ValueError("implicit wear: give the solved depths (implicit_sub_block); "
+                             "a rate alone is integrated only as 'relaxed' or 'explicit'")
+        dh = bc.wear.depth(n, wear_integration) if depths is None else depths[i]
         worn = shape_change(dh, ~bs.pitted)
         if dh.any():
             bs.heights -= dh
@@ -244,7 +266,7 @@ def sub_block_cycles(state: LifeState, result: CycleResult, left: float, life: L
     floor = life.block / life.max_splits
     n = left
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
-        if bs.rq0 > 0:
+        if bs.rq0 > 0 and life.wear_integration != "implicit":
             n = min(n, _wear_limited(bc.wear, life.max_wear_fraction * bs.rq0, n,
                                      life.wear_integration, ~bs.pitted))
     n = max(n, min(floor, left))
@@ -254,6 +276,124 @@ def sub_block_cycles(state: LifeState, result: CycleResult, left: float, life: L
     if left - n <= 1e-9 * life.block:
         n = left
     return min(n, left)
+
+
+def _worn(surfaces: tuple[Topography, Topography], state: LifeState,
+          depths: tuple[np.ndarray, np.ndarray]) -> tuple[Topography, Topography]:
+    """``surfaces`` (:func:`contact_surfaces`) lowered by a trial wear ``depths``; a pitted
+    column follows the wear of the intact columns around it, as :func:`_around_pits` lets it."""
+    return tuple(Topography(s.heights - _around(w, b.pitted), s.dx, s.dy, "worn")
+                 for s, b, w in zip(surfaces, state.bodies, depths, strict=True))
+
+
+@dataclass(frozen=True)
+class WearSteps:
+    """The implicit wear of one sub-block (:func:`implicit_sub_block`): its cycles, the worn
+    depth of each body over them [m], the next wear step the controller proposes, the
+    contact-only load cycles spent, and the largest residual of an accepted step over R_q
+    (above ``life.wear_tol`` where a step at the smallest length still did not converge)."""
+
+    cycles: float
+    depth: tuple[np.ndarray, np.ndarray]
+    proposal: float
+    contact_cycles: int
+    residual: float
+    cap: float = math.inf
+    fallback: float = 0.0
+
+
+#: The contact-only load cycles one sub-block's implicit wear may spend, in units of
+#: ``life.wear_max_iter``; past them the rest of the sub-block is integrated by the relaxed
+#: update from the last solved rates, and the block is flagged (``wear_unresolved``).
+WEAR_BUDGET = 8
+
+#: The smallest wear step, as a share of the smallest sub-block ΔN/``life.max_splits``: a step
+#: that does not converge is halved down to it, and accepted there.
+MIN_WEAR_STEP = 1.0 / 16.0
+
+
+def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResult,
+                       surfaces: tuple[Topography, Topography],
+                       pits: tuple[np.ndarray, np.ndarray] | None, warm: dict, n: float,
+                       proposal: float | None, life: LifeSpec,
+                       cap: float = math.inf) -> WearSteps:
+    """The implicit wear of the next sub-block (``life.wear_integration = "implicit"``,
+    :mod:`micropit_hpc.implicit_wear`) of at most ``n`` cycles (the damage and pit limits,
+    :func:`sub_block_cycles`): backward-Euler steps over contact-only load cycles on the worn
+    ``surfaces``, each solved to ``life.wear_tol`` × R_q (R_q: the smallest initial R_q of the
+    rough bodies). The first step is the controller's ``proposal`` (None: from the starting
+    rates, a local error of (n/2)·|Δh(0)| at most); a step is halved while its solve does not
+    converge (and later steps, this sub-block's and, through ``cap``, the block's next ones,
+    stay below three quarters of it), and cut while its local error exceeds
+    ``life.wear_accuracy`` × R_q, down to :data:`MIN_WEAR_STEP` of ΔN/``life.max_splits``, where
+    it is accepted. The sub-block ends early, after at least ΔN/``life.max_splits`` cycles, once
+    its wear has changed a surface's shape by ``life.max_wear_fraction`` × R_q
+    (:func:`shape_change`): the damage of the next sub-block is then evaluated on the run-in
+    surfaces. Collective (the contact)."""
+    bodies = state.bodies
+    intact = [~b.pitted for b in bodies]
+    rq = min((b.rq0 for b in bodies if b.rq0 > 0), default=0.0)
+    rates0 = tuple(bc.wear for bc in result.bodies)
+    if rq == 0.0 or not any(r.rate.any() for r in rates0):
+        # smooth bodies (nothing to relieve) or no wear: the explicit rate is exact
+        return WearSteps(n, tuple(n * r.rate for r in rates0), n, 0, 0.0, cap)
+    tol, accuracy = life.wear_tol * rq, life.wear_accuracy * rq
+    floor = min(life.block / life.max_splits, n)
+    smallest = MIN_WEAR_STEP * floor
+    if proposal is None:
+        top = max(shape_change(r.rate, keep) for r, keep in zip(rates0, intact, strict=True))
+        proposal = 2.0 * accuracy / top if top > 0 else n
+    depth = tuple(np.zeros_like(r.rate) for r in rates0)
+    done, spent, worst, h, now = 0.0, 0, 0.0, max(proposal, smallest), rates0
+
+    def shape(maps) -> float:
+        return max(shape_change(d, keep) / b.rq0 for d, keep, b
+                   in zip(maps, intact, bodies, strict=True) if b.rq0 > 0)
+
+    limit, last = life.max_wear_fraction, False
+
+    fallback = 0.0
+    while n - done > 1e-9 * n:
+        if spent >= WEAR_BUDGET * life.wear_max_iter:
+            fallback = n - done
+            depth = tuple(d + r.depth(fallback, "relaxed")
+                          for d, r in zip(depth, now, strict=True))
+            done = n
+            break
+        m = min(h, n - done)
+        base = depth
+
+        def rates(w, base=base):
+            return cycle.wear_rates(_worn(surfaces, state, tuple(
+                d + x for d, x in zip(base, w, strict=True))), pits, warm)
+
+        with event("implicit_wear"):
+            sol = backward_euler(rates, now, m, tol, max_iter=life.wear_max_iter)
+        spent += sol.iterations
+        err = max(sol.error(intact))
+        if m > smallest and not sol.converged:
+            cap = min(cap, 0.75 * m)
+            h = max(0.5 * m, smallest)
+            continue
+        if m > smallest and err > accuracy:
+            h = max(next_length(m, err, accuracy, grow=1.0), smallest)
+            continue
+        after = tuple(d + x for d, x in zip(depth, sol.depth, strict=True))
+        grown, before = shape(after), shape(depth)
+        if done + m > floor * (1 + 1e-9) and grown > limit * (1 + 1e-9) and m > smallest:
+            # end the sub-block at the shape limit (but not before the floor): a shorter step
+            cut = max(floor - done, 0.95 * m * (limit - before) / max(grown - before, 1e-300))
+            if cut < (1 - 1e-6) * m:
+                h, last = max(cut, smallest), True
+                continue
+        if not sol.converged:                   # accepted at the smallest step: stay there
+            cap = min(cap, m)
+        worst = max(worst, sol.residual / rq)
+        depth, now, done = after, sol.rate_end, done + m
+        h = min(next_length(m, err, accuracy), max(cap, m))
+        if done >= floor * (1 - 1e-9) and (last or grown >= limit):
+            break
+    return WearSteps(done, depth, h, spent, worst, cap, fallback)
 
 
 #: A column counts in :func:`deep_damage_ratio` when it gathers at least this damage per block:
@@ -302,18 +442,32 @@ def run_block(cycle: PositionCycle, state: LifeState, life: LifeSpec,
     added, low_added, deep = [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]
     result, warm = None, {}
     total = left
+    wear_mode = "explicit" if life.integration == "paper" else life.wear_integration
+    implicit = wear_mode == "implicit" and cycle.k_lub > 0
+    if wear_mode == "implicit" and not implicit:
+        wear_mode = "explicit"          # no wear coefficient: every rate is zero
+    proposal, cap, wear_cycles, wear_residual, fallback = None, math.inf, 0, 0.0, 0.0
     while left > 0:
         step = None if on_progress is None else (
             lambda j, d=n_done, s=subs + 1: on_progress(d, total, s, j, cycle.steps))
         surfaces, pits = contact_surfaces(state, cycle.grid, life.pit_contact)
         result = cycle.evaluate(surfaces, pits, warm, step)
         n = sub_block_cycles(state, result, left, life, slab)
+        depths = None
+        if implicit:
+            worn = implicit_sub_block(cycle, state, result, surfaces, pits, warm, n,
+                                      proposal, life, cap)
+            cap = worn.cap
+            n, depths, proposal = worn.cycles, worn.depth, worn.proposal
+            wear_cycles += worn.contact_cycles
+            wear_residual = max(wear_residual, worn.residual)
+            fallback += worn.fallback
         for i, bc in enumerate(result.bodies):
             intact = ~state.bodies[i].pitted[slab.rows]
             deep[i] = max(deep[i], slab.max(deep_damage_ratio(
                 bc.damage_rate, DEEP_SIGNIFICANT / life.block, intact)))
         with event("apply_cycles"):
-            steps = apply_cycles(state, result, n, cycle.z, slab, life.wear_integration)
+            steps = apply_cycles(state, result, n, cycle.z, slab, wear_mode, depths)
         for i, (bs, st) in enumerate(zip(state.bodies, steps, strict=True)):
             if bs.rq0 > 0:
                 wear_step = max(wear_step, st.shape_change / bs.rq0)
@@ -345,6 +499,7 @@ def run_block(cycle: PositionCycle, state: LifeState, life: LifeSpec,
         low_cycle_pits=tuple(lo / n if n else 0.0 for lo, n in zip(low_pits, new_pits,
                                                                     strict=True)),
         plastic_share=plastic_acc / n_done, deep_damage=(deep[0], deep[1]),
-        slope=tuple(rms_slope(bs.heights + bs.pit_depth, cycle.grid.dx) for bs in b),
+        slope=tuple(rms_slope(_around_pits(bs), cycle.grid.dx) for bs in b),
+        wear_cycles=wear_cycles, wear_residual=wear_residual, wear_fallback=fallback / n_done,
         pit_depth_max=tuple(float(bs.pit_depth.max()) for bs in b))
     return rec

@@ -16,6 +16,9 @@ summary.csv and results.h5) and into one warning line per block for the run log:
   largest: the layers do not reach below the damage (raise ``stress.depth_b``).
 * ``pits_below_layers``: a column has lost more material to pits than the stress layers reach
   (z_max): its damage below was never evaluated.
+* ``wear_unresolved``: the implicit wear spent its budget of contact-only load cycles in a
+  sub-block (``life.wear_max_iter`` × :data:`~micropit_hpc.life.WEAR_BUDGET`) and integrated
+  the rest of it with the cell-relaxed update (a wear far faster than the block resolves).
 * ``window``: a synthetic surface's correlation lengths do not fit the window (L_x ≥ 4 β_x and
   L_y ≥ 2 β_y); one ridge spans the window and its R_q is not the surface's.
 """
@@ -71,6 +74,8 @@ def block_flags(rec, z_max: float, window_ok: bool = True) -> list[str]:
         flags.append("pits_below_layers")
     if not window_ok:
         flags.append("window")
+    if getattr(rec, "wear_fallback", 0.0) > 0.0:
+        flags.append("wear_unresolved")
     return flags
 
 
@@ -120,6 +125,12 @@ def block_warning(block: int, records: Mapping[int, object], z_max: float,
             v, i = worst(ids, lambda r: max(r.pit_depth_max))
             parts.append(f"pits deeper than the stress layers ({z_max * 1e6:.3g} µm) on "
                          f"{_items(ids)}, up to {v * 1e6:.3g} µm (item {i})")
+        elif flag == "wear_unresolved":
+            v, i = worst(ids, lambda r: r.wear_fallback)
+            parts.append(f"the implicit wear spent its budget of contact-only cycles on "
+                         f"{_items(ids)} and integrated up to {100 * v:.3g} % of the block "
+                         f"(item {i}) with the cell-relaxed update, whose depth follows the "
+                         "cell size: lower life.block_M or wear.k_lub_s")
         elif flag == "window":
             parts.append("the window does not hold the surfaces' correlation lengths "
                          "(see the set-up warning)")
@@ -146,8 +157,7 @@ class RangeWarnings:
     def __init__(self, life, log):
         self.log, self.life, self.study = log, life, None
         why_wear = ("for a stable wear update" if life.wear_integration == "explicit" else
-                    "to follow the running-in in finer steps (the relaxed update keeps each "
-                    "step within the elastic relief of the contact spots)")
+                    "to follow the running-in in finer steps")
         # (record field, limit, what one sub-block did, unit scale, key, why finer steps)
         self.limits = (
             ("wear_step", life.max_wear_fraction, "one sub-block's wear changed the surface "

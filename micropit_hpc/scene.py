@@ -64,6 +64,8 @@ LUBRICATION_MODELS = ("auto", *LEVELS)
 COUNTING = ("sliding", "rainflow")
 #: Time integration of the life (micropit_hpc.life): the adaptive split or the paper's blocks.
 INTEGRATIONS = ("adaptive", "paper")
+#: How the wear of a sub-block is integrated (micropit_hpc.wear, micropit_hpc.implicit_wear).
+WEAR_INTEGRATIONS = ("implicit", "relaxed", "explicit")
 
 
 @dataclass(frozen=True)
@@ -586,6 +588,14 @@ class WearSpec:
     f_w: float = setting(
         "solid_factor", "float", "f_w: the factor on k_lub where the contact is solid.",
         default=10.0, lo=0, hi=1e6)
+    solid_ramp: float = setting(
+        "solid_ramp_film", "float", "[choice] Width of the clearance over which "
+        "the wear coefficient goes from f_w·k_lub (clearance ≤ lubrication.h_min_um) to k_lub, "
+        "as a fraction of the smooth central film h_c: k = k_lub[1 + (f_w − 1)s], s linear "
+        "in the clearance. 0 is the step of the paper, at which the wear rate jumps tenfold "
+        "at the edge of each contact spot and no worn depth is consistent with its own rate "
+        "(docs/life.md, \"Implicit wear\"). Friction keeps the step (μ_bl on solid contact).",
+        default=0.25, lo=0, hi=100)
 
 
 @dataclass(frozen=True)
@@ -629,13 +639,32 @@ class LifeSpec:
         choices=("unloaded", "geometric"))
     wear_integration: str = setting(
         "wear_integration", "str", "How the wear of a sub-block is "
-        "integrated [choice]. `relaxed`: the solid-contact part of the Archard rate decays as "
+        "integrated in the `adaptive` integration [decision] (`paper` always wears "
+        "explicitly). `implicit`: backward Euler, the worn depth w = n·Δh(w) with Δh from "
+        "contact-only load cycles solved on the surfaces worn by w, so each spot's relief "
+        "comes from the contact's own response; the sub-block length follows an accuracy "
+        "control on the wear (docs/life.md, \"Implicit wear\"). Not converged, kept for "
+        "comparison: `relaxed`: the solid-contact part of the Archard rate decays as "
         "the wear relieves the pressure of each contact spot (lowering a spot by δ lowers its "
         "pressure by δ/K₀, K₀ the self-compliance of a grid cell), integrated exactly over "
         "the sub-block; the film part stays explicit; `explicit`: n·Δh, docs/model.md §4.6 as "
         "written, which digs contact spots many R_q deep when the sub-block is much longer "
         "than the few thousand cycles their wear takes to relieve them (docs/life.md).",
-        default="relaxed", choices=("relaxed", "explicit"))
+        default="implicit", choices=WEAR_INTEGRATIONS)
+    wear_tol: float = setting(
+        "wear_tol", "float", "`implicit` wear: the fixed point w = n·Δh(w) is "
+        "solved until max |n·Δh(w) − w| is below this fraction of the smallest initial R_q "
+        "of the rough bodies (docs/life.md, \"Implicit wear\").", default=0.005, lo=0,
+        hi=1, lo_open=True)
+    wear_accuracy: float = setting(
+        "wear_accuracy", "float", "`implicit` wear: a sub-block is cut while "
+        "backward Euler's local error estimate (n/2)·|Δh(w) − Δh(0)| (less its mean) exceeds "
+        "this fraction of the smallest initial R_q; the next one grows by at most 4×.",
+        default=0.05, lo=0, hi=100, lo_open=True)
+    wear_max_iter: int = setting(
+        "wear_max_iter", "int", "`implicit` wear: the most contact-only load "
+        "cycles one sub-block's solve may take (a solve that stops there is accepted and "
+        "reported in the log).", default=30, lo=1, hi=10000)
     integration: str = setting(
         "integration", "str", "Time integration of the life [decision]. "
         "`adaptive`: blocks split until damage, pits and wear are resolved in time (the "

@@ -133,7 +133,14 @@ class BlockRecord:
     weighted by their cycles); ``deep_damage``: :func:`micropit_hpc.life.deep_damage_ratio`,
     the largest over the block's evaluations; ``slope``: each surface's RMS slope Δq along x
     at the end of the block, of the surface the contact sees (the pits filled: their walls
-    carry no load) [rad]; ``pit_depth_max``: the deepest cumulative pit of each body [m]."""
+    carry no load) [rad]; ``pit_depth_max``: the deepest cumulative pit of each body [m].
+
+    The implicit wear (``life.wear_integration = "implicit"``): ``wear_cycles``, the
+    contact-only load cycles its solves took in the block; ``wear_residual``, the largest
+    residual max |n Δh(w) − w| of an accepted step over R_q (above ``life.wear_tol`` where a
+    step of the smallest length did not converge); ``wear_fallback``, the share of the block's
+    cycles whose wear the relaxed update integrated because a sub-block spent its budget of
+    contact-only cycles (:data:`micropit_hpc.life.WEAR_BUDGET`)."""
 
     block: int = unit("1")
     cycles: float = unit("1")
@@ -154,6 +161,9 @@ class BlockRecord:
     deep_damage: tuple[float, float] = unit("1", (0.0, 0.0))
     slope: tuple[float, float] = unit("rad", (0.0, 0.0))
     pit_depth_max: tuple[float, float] = unit("m", (0.0, 0.0))
+    wear_cycles: int = unit("1", 0)
+    wear_residual: float = unit("1", 0.0)
+    wear_fallback: float = unit("1", 0.0)
 
 
 def _kind(f) -> str:

@@ -48,9 +48,10 @@ import numpy as np
 
 from micropit_hpc.spectral import to_material_frame
 
-__all__ = ["WEAR_INTEGRATIONS", "WearRate", "archard_wear", "to_material_frame"]
+__all__ = ["WEAR_INTEGRATIONS", "WearRate", "archard_wear", "solid_weight", "to_material_frame"]
 
-#: How the wear of a sub-block is integrated (module docstring).
+#: The integrations :meth:`WearRate.depth` does from one rate (module docstring); the default
+#: ``"implicit"`` re-solves the contact (:mod:`micropit_hpc.implicit_wear`).
 WEAR_INTEGRATIONS = ("relaxed", "explicit")
 
 
@@ -83,6 +84,19 @@ class WearRate:
         return n * (self.fluid + self.solid * share)
 
 
+def solid_weight(clearance: np.ndarray, h_min: float, ramp: float) -> np.ndarray:
+    """The share s ∈ [0, 1] of the solid-contact coefficient f_w k_lub in the Archard
+    coefficient k = k_lub [1 + (f_w − 1) s] of a point with this ``clearance`` [m]
+    (``wear.solid_ramp_film`` [choice], docs/life.md "Implicit wear"): 1 at or below h_min, 0
+    at or above h_min + ``ramp``, linear between. ``ramp`` = 0 is the step of docs/model.md §4.6
+    (k jumps tenfold at the edge of solid contact), which makes the wear rate a discontinuous
+    function of the worn depth: a point at the edge wears ten times faster in contact than
+    out of it, and no worn depth is consistent with its own rate."""
+    if ramp <= 0.0:
+        return (clearance <= h_min).astype(float)
+    return np.clip((h_min + ramp - clearance) / ramp, 0.0, 1.0)
+
+
 def archard_wear(pressures: Sequence[np.ndarray], solids: Sequence[np.ndarray],
                  shifts: Sequence[float], dx: float, u_s: float, hardness: float,
                  counter_hardness: float, k_lub: float, f_w: float,
@@ -90,19 +104,21 @@ def archard_wear(pressures: Sequence[np.ndarray], solids: Sequence[np.ndarray],
     """Δh_i per load cycle [m] of body i in its material frame, split by regime, with the
     relaxation rate of its solid part (module docstring).
 
-    ``pressures``/``solids``: the window-frame pressure [Pa] and solid-contact mask of each of
-    the m time steps; ``shifts``: the body's slip (u_i − ū) t_j at each step [m]; ``u_s`` the
-    sliding speed, ``hardness`` H_i and ``counter_hardness`` H_j [Pa], ``k_lub`` [s], ``f_w``
-    the solid-contact factor, ``cell_compliance`` K₀ [m/Pa].
+    ``pressures``/``solids``: the window-frame pressure [Pa] and solid-contact share s
+    (:func:`solid_weight`; a mask is s ∈ {0, 1}) of each of the m time steps; ``shifts``: the
+    body's slip (u_i − ū) t_j at each step [m]; ``u_s`` the sliding speed, ``hardness`` H_i
+    and ``counter_hardness`` H_j [Pa], ``k_lub`` [s], ``f_w`` the solid-contact factor,
+    ``cell_compliance`` K₀ [m/Pa].
     """
     shape = np.shape(pressures[0])
     if k_lub == 0.0 or u_s == 0.0:
         return WearRate(np.zeros(shape), np.zeros(shape), np.zeros(shape))
     solid_acc, fluid_acc, share = np.zeros(shape), np.zeros(shape), np.zeros(shape)
     for p, solid, shift in zip(pressures, solids, shifts, strict=True):
-        solid_acc += to_material_frame(np.where(solid, p, 0.0), shift, dx)
-        fluid_acc += to_material_frame(np.where(solid, 0.0, p), shift, dx)
-        share += to_material_frame(solid.astype(float), shift, dx)
+        s = np.asarray(solid, dtype=float)
+        solid_acc += to_material_frame(s * p, shift, dx)
+        fluid_acc += to_material_frame((1.0 - s) * p, shift, dx)
+        share += to_material_frame(s, shift, dx)
     m = len(pressures)
     scale = 0.5 * abs(u_s) / hardness * k_lub / m
     relax = (0.5 * abs(u_s) * f_w * k_lub * (1.0 / hardness + 1.0 / counter_hardness)
