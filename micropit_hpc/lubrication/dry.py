@@ -143,6 +143,11 @@ class ElasticHalfSpaces:
 #: at the full tolerance (:func:`solve_dry_contact`); 0: every solve at the full tolerance.
 LOOSE_UPDATES = 8
 
+#: Whether the CG direction restarts from steepest descent whenever points enter the contact
+#: (Polonsky & Keer 1999, δ = 0 after a change of the contact set). False: the directions stay
+#: conjugate through entries as through exits (:func:`_polonsky_keer`).
+RESET_ON_ENTRY = False
+
 #: The implementation of the iteration's elementwise stages that :func:`solve_dry_contact` uses
 #: when none is given: "auto" (compiled where Numba can be imported, else NumPy), "numba" or
 #: "numpy" (:mod:`micropit_hpc.compiled`). A module-level switch for whole runs.
@@ -246,7 +251,12 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
                    excluded: np.ndarray | None, N: int,
                    group: Reductions, stages) -> tuple[np.ndarray, np.ndarray, int, float]:
     """Elastic load-controlled contact, Polonsky & Keer (1999) eqs. (13)–(22); points in
-    ``excluded`` carry no pressure and may not enter. Returns (p, g − ḡ, iterations, ε).
+    ``excluded`` carry no pressure and may not enter. Unlike their δ = 0 after points enter the
+    contact, the direction stays conjugate through entries (:data:`RESET_ON_ENTRY`): each
+    step is still the exact minimiser along its direction, and the restarts, one at nearly
+    every iteration on a rough contact, had turned the CG into steepest descent, whose
+    iterations grow ∝ n (docs/performance.md, "Contact iterations that do not grow with the
+    grid": 131/204 → 105/144 iterations at 256²/512², the same pressure error). Returns (p, g − ḡ, iterations, ε).
     ``g0``, ``p``, ``excluded``: this rank's rows of the ``N`` points of the window (C-ordered;
     ``p`` is updated in place); every sum and scalar product is reduced over ``group``.
 
@@ -286,7 +296,7 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
         tau = gt / curvature
         n_enter, p_sum = group.sums(*stages.update(p, t, g, c, tau, allowed,
                                                    p if buf is None else buf))
-        conjugate = not n_enter
+        conjugate = not (n_enter and RESET_ON_ENTRY)
         c = P * N / p_sum
     p *= c
     return p, g, it, error

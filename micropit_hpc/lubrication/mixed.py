@@ -215,9 +215,10 @@ class MixedLubrication:
         """Pressure and clearance at one step. ``r_now``/``r_entry``: half spectra of each
         surface's rough clearance −z_i at time t and at the window's entry (t = 0).
 
-        ``p_init`` starts the solves of the coarse scan over :data:`PHI_SCAN` (default: the
-        coarse-to-fine start of a cold dry solve, :func:`~.dry.solve_dry_contact`, and not
-        the last trial load's pressure: at the paper gear's position 3 the cold solve takes
+        ``p_init`` starts the first loaded solve of the coarse scan over :data:`PHI_SCAN`
+        (default: uniform pressure); the scan's other solves start cold, with the
+        coarse-to-fine start of :func:`~.dry.solve_dry_contact`, and not from the last trial
+        load's pressure: at the paper gear's position 3 the cold solve takes
         0.7–0.8 s at 512² where the start from the previous trial's pressure took 1.3–2.1 s,
         and the whole step 22 s against 87 s at 1024²: docs/performance.md, "Contact
         iterations that do not grow with the grid"); each solve of the root search starts
@@ -250,10 +251,10 @@ class MixedLubrication:
 
         def film(phi, near=None):
             """Mean clearance minus the flow balance's c_ρ h̄, and the dry solution at φ, its
-            solves started from ``near``'s pressure when given (else from ``p_init``, or
-            cold: coarse to fine)."""
-            if near is None:
-                start = start0
+            solves started from ``near``'s pressure when given (else from ``p_init`` for the
+            first loaded solve, or cold: coarse to fine)."""
+            if near is None:        # the scan: p_init for its first loaded solve only
+                start = start0 if state["p"] is start0 else None
             else:
                 start = near.pressure if group.any(near.pressure) else state["p"]
             if warm is not None:
