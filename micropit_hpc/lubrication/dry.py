@@ -256,7 +256,8 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
     step is still the exact minimiser along its direction, and the restarts, one at nearly
     every iteration on a rough contact, had turned the CG into steepest descent, whose
     iterations grow ∝ n (docs/performance.md, "Contact iterations that do not grow with the
-    grid": 131/204 → 105/144 iterations at 256²/512², the same pressure error). Returns (p, g − ḡ, iterations, ε).
+    grid": 131/204 → 105/144 iterations at 256²/512², the same pressure error).
+    Returns (p, g − ḡ, iterations, ε).
     ``g0``, ``p``, ``excluded``: this rank's rows of the ``N`` points of the window (C-ordered;
     ``p`` is updated in place); every sum and scalar product is reduced over ``group``.
 
@@ -433,11 +434,12 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     Cap 0 ≤ p ≤ p_lim (docs/model.md §4.1 step 3; p_lim = 0.6 H by default there): the plastic
     set is found by the fixed-point iteration of Jacq et al. (J. Tribol. 124 (2002) 653–667):
     points at p_lim are held at the cap, the elastic problem is solved on the rest, points whose
-    elastic pressure exceeds the cap join the set and points of the set whose gap opens leave
-    it, until the set no longer changes. ``kernel``: the implementation of the iteration's
-    elementwise stages (:func:`iteration_stages`; None: :data:`DEFAULT_KERNEL`); the compiled
-    and the NumPy stages agree to round-off. ``p_init`` warm-starts the iteration (e.g. the previous
-    time step's pressure); ``max_iter`` bounds the total number of CG steps. ``tol`` and
+    elastic pressure exceeds the cap join the set and points of the set whose gap opens (by
+    more than the residual ε·rms(g0 − mean g0)) leave it, until the set no longer changes.
+    ``kernel``: the implementation of the iteration's elementwise stages
+    (:func:`iteration_stages`; None: :data:`DEFAULT_KERNEL`); the compiled and the NumPy stages
+    agree to round-off. ``p_init`` warm-starts the iteration (e.g. the previous time step's
+    pressure); ``max_iter`` bounds the total number of CG steps. ``tol`` and
     ``max_iter`` are the scene's ``lubrication.tolerance`` and ``lubrication.max_iterations``
     (:class:`~micropit_hpc.scene.LubricationSpec`), which the callers pass.
 
@@ -524,7 +526,11 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
             break
         p_total = np.where(plastic, p_lim, p)
         grow = p > p_lim
-        release = plastic & (g > 0.0)
+        # a yielded point leaves the set when its gap opens by more than the solve's residual
+        # (ε · rms(g0), the gap's accuracy): a gap open by less is g = 0 to that accuracy, and
+        # releasing it let points flip in and out of the set for ever (one iteration per
+        # update), seen on the paper gear's 512² and 1024² windows
+        release = plastic & (g > phase_tol * scale)
         n_grow, n_release = group.sums(np.count_nonzero(grow), np.count_nonzero(release))
         if phase_tol > tol and (it <= 1 or updates >= LOOSE_UPDATES
                                 or not (n_grow or n_release)):
