@@ -133,7 +133,12 @@ def main() -> None:
     ap.add_argument("--pressure", type=float, default=2.75e9)
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--only", choices=("before", "after"), default=None)
+    ap.add_argument("--unscaled", action="store_true",
+                    help="'after' stops at ε ≤ tol on every grid (dry.TOLERANCE_POINTS = 0): "
+                         "the error per unit residual, from which the rule's exponent comes")
     args = ap.parse_args()
+    if args.unscaled:
+        dry.TOLERANCE_POINTS = 0
     print(f"cold dry contact solves, {args.surface} surface, {datetime.date.today()}, commit "
           f"{source_commit()}, one core, median of {args.repeat}\n")
     print("| grid | solver | tol | iterations (fine) | time [s] | ms per fine it. | "
