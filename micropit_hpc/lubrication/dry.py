@@ -256,7 +256,10 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
     step is still the exact minimiser along its direction, and the restarts, one at nearly
     every iteration on a rough contact, had turned the CG into steepest descent, whose
     iterations grow ∝ n (docs/performance.md, "Contact iterations that do not grow with the
-    grid": 131/204 → 105/144 iterations at 256²/512², the same pressure error).
+    grid": 131/204 → 105/144 iterations at 256²/512², the same pressure error). A kept
+    direction that no longer descends (Σ g t ≤ 0) is replaced by steepest descent in that
+    iteration (one more convolution): stepping backwards, points would enter at −τ g < 0 (seen
+    on a nearly flat, heavily worn surface, tests/test_hard_cases.py).
     Returns (p, g − ḡ, iterations, ε).
     ``g0``, ``p``, ``excluded``: this rank's rows of the ``N`` points of the window (C-ordered;
     ``p`` is updated in place); every sum and scalar product is reduced over ``group``.
@@ -287,10 +290,18 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
         error = math.sqrt(G / n_contact) / scale
         if error <= tol:
             break
-        stages.direction(g, p, t, G / G_old if conjugate else 0.0, t if buf is None else buf)
+        while True:
+            stages.direction(g, p, t, G / G_old if conjugate else 0.0,
+                             t if buf is None else buf)
+            r = hs.response(t if buf is None else None)
+            r_sum, rt, t_sum, gt = group.sums(*stages.project(r, t, g, p))
+            if gt > 0.0 or not conjugate:
+                break
+            # a kept direction that no longer descends (Σ g t ≤ 0: the step would go
+            # backwards, and points entering at −τ g would enter with negative pressure):
+            # this iteration restarts from steepest descent, whose Σ g t = G > 0
+            conjugate = False
         G_old = G
-        r = hs.response(t if buf is None else None)
-        r_sum, rt, t_sum, gt = group.sums(*stages.project(r, t, g, p))
         curvature = rt - r_sum / n_contact * t_sum     # Σ (r − r̄_contact) t
         if curvature <= 0.0:   # no descent left at round-off level
             break
