@@ -10,7 +10,7 @@ A plain NumPy transcription of the elastic iteration of ``lubrication/dry.py``
 * ``kept``: the directions stay conjugate through entries (dry.RESET_ON_ENTRY = False);
 * ``... + FFT preconditioner``: the residual on the contact mapped through the inverse
   response p̂ = (E'|k|/4) û on the whole window, restricted to the contact and centred
-  (the FFT-based preconditioner of Vollebregt, J. Optim. Theory Appl. 162 (2014) 931–953),
+  (the FFT-based preconditioner of Vollebregt, J. Comput. Phys. 257 (2014) 333–351),
   one more convolution per iteration.
 
 Surface and load as bench_multilevel.py's ``random`` (2.75 GPa, 20 % contact at 256²); cold

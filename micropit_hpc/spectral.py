@@ -194,7 +194,7 @@ def plan_wisdom(shapes, batch: int | None = None) -> str:
     so a reader never sees half a file); returns its path. Run once per machine (``python -m
     micropit_hpc.spectral plan 256 512 1024``): from then on every process plans those
     transforms from the file (:class:`RealFFT2`, planner ``auto``). FFTW_MEASURE times
-    candidate algorithms on this machine (Frigo & Johnson, Proc. IEEE 93 (2005) 216–231 §5)."""
+    candidate algorithms on this machine (Frigo & Johnson, Proc. IEEE 93 (2005) 216–231)."""
     if pyfftw is None:  # pragma: no cover
         raise MicropitError("planning FFTW wisdom needs pyFFTW")
     path = wisdom_path()

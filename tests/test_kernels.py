@@ -48,7 +48,7 @@ def test_compiled_stages_equal_the_numpy_stages():
     """Each stage, same inputs: the fields written equal to round-off (the compiled ones may
     fuse a multiply-add) and the local sums within the rounding bound of two summation orders
     of the same n terms, 2 γ_n Σ|terms| with γ_n = n ε/(1 − n ε) (Higham, *Accuracy and
-    Stability of Numerical Algorithms* (2002) eq. 4.4): the compiled sums run in vector lanes,
+    Stability of Numerical Algorithms* (2002), ch. 4): the compiled sums run in vector lanes,
     NumPy's pairwise, and a sum of terms of both signs may differ in more than its 13th
     digit."""
     p, g0, u, g, t, allowed = stage_inputs()

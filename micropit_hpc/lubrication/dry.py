@@ -358,7 +358,7 @@ def restrict(f: np.ndarray) -> np.ndarray:
     stencil along each axis, periodic, at the fine points (2I, 2J) that the coarse points
     (I, J) coincide with (both grids put point i at (i − n/2)·dx, so coarse point I lies on
     fine point 2I). Keeps the mean exactly in exact arithmetic (Trottenberg, Oosterlee &
-    Schüller, *Multigrid* (2001) §2.3.3); here it restricts the undeformed gap."""
+    Schüller, *Multigrid* (2001), ch. 2); here it restricts the undeformed gap."""
     a = 0.5 * f + 0.25 * (np.roll(f, 1, axis=0) + np.roll(f, -1, axis=0))
     a = a[::2]
     b = 0.5 * a + 0.25 * (np.roll(a, 1, axis=1) + np.roll(a, -1, axis=1))
@@ -368,7 +368,7 @@ def restrict(f: np.ndarray) -> np.ndarray:
 def prolong(fc: np.ndarray) -> np.ndarray:
     """The coarse field on the grid refined by 2: bilinear interpolation, periodic (fine point
     2I is coarse point I, fine point 2I + 1 the mean of coarse points I and I + 1; the
-    transpose of :func:`restrict` up to a factor 4, Trottenberg et al. (2001) §2.3.3), one axis
+    transpose of :func:`restrict` up to a factor 4, Trottenberg et al. (2001), ch. 2), one axis
     after the other. Each new value is the mean of two (x, then y), so between equal values
     (points held at the cap p_lim) it is that value exactly, and it stays within the coarse
     field's bounds: a pressure in [0, p_lim] stays there."""
@@ -398,7 +398,7 @@ def coarse_levels(grid: Grid, coarsest: int | None = None) -> int:
 def _coarse_start(g0_whole: np.ndarray, grid: Grid, E_prime: float, P: float, p_lim: float,
                   tol: float, max_iter: int, levels: int, kernel) -> tuple[np.ndarray, int]:
     """The coarse-to-fine start (nested iteration, "full multigrid" start; Brandt, Math. Comp.
-    31 (1977) 333–390 §7; Venner & Lubrecht, *Multilevel Methods in Lubrication* (2000) §3.9):
+    31 (1977) 333–390; Venner & Lubrecht, *Multilevel Methods in Lubrication* (2000)):
     the whole window's gap restricted ``levels`` times (:func:`restrict`), the contact solved
     on the coarsest grid from uniform pressure, its pressure (and with it the contact and the
     yielded set: p > 0, p = p_lim) prolongated (:func:`prolong`) to start the solve of the next
