@@ -9,17 +9,23 @@ Transforms are planned once per shape (pyFFTW, one thread per rank) and cached; 
 the same API falls back to ``numpy.fft`` (about 10x slower, docs/hpc.md §2). Grid sizes that factor
 into 2, 3 and 5 only (5-smooth) are fastest; any size works.
 
-Planner: ``FFTW_ESTIMATE`` by default, because it chooses the same algorithm in every process,
-so results are bitwise identical on any number of ranks and across runs. ``FFTW_MEASURE``
-times candidate algorithms and may pick different ones in different processes, whose results
-then differ in the last bits; it is 1.2–1.8x faster (0.24 vs 0.41 ms per 256² round trip
-here). Set ``MICROPIT_FFTW_PLANNER=measure`` to trade bitwise reproducibility for speed.
+Planner (``MICROPIT_FFTW_PLANNER``): ``auto`` (default) plans each serial transform from this
+machine's FFTW wisdom file (:func:`wisdom_path`) when the file holds it — the ``FFTW_MEASURE``
+plan measured once per machine and shape by ``python -m micropit_hpc.spectral plan N …``
+(:func:`plan_wisdom`), 10–30 % faster per transform — and with ``FFTW_ESTIMATE`` otherwise.
+Both choose the same algorithm in every process that reads the same file, so results stay
+bitwise identical on any number of ranks and across runs (docs/contact.md, "FFT planning and
+reproducibility"). ``estimate`` ignores the wisdom; ``measure`` (or ``patient``) times
+candidate algorithms in every process, which may pick different ones in different processes,
+whose results then differ in the last bits.
 """
 
 from __future__ import annotations
 
 import math
 import os
+import platform
+import sys
 from dataclasses import dataclass
 from functools import cached_property
 
@@ -131,15 +137,82 @@ class Grid:
         return w[None, :]
 
 
-PLANNERS = {"estimate": "FFTW_ESTIMATE", "measure": "FFTW_MEASURE", "patient": "FFTW_PATIENT"}
+PLANNERS = {"auto": "FFTW_ESTIMATE", "estimate": "FFTW_ESTIMATE", "measure": "FFTW_MEASURE",
+            "patient": "FFTW_PATIENT"}
+
+
+def planner_name() -> str:
+    """``MICROPIT_FFTW_PLANNER`` (default ``auto``), checked against :data:`PLANNERS`."""
+    name = os.environ.get("MICROPIT_FFTW_PLANNER", "auto").strip().lower()
+    if name not in PLANNERS:
+        raise MicropitError(f"MICROPIT_FFTW_PLANNER={name!r}: allowed {', '.join(PLANNERS)}")
+    return name
 
 
 def planner_flag() -> str:
-    """The FFTW planner flag from ``MICROPIT_FFTW_PLANNER`` (default ``estimate``)."""
-    name = os.environ.get("MICROPIT_FFTW_PLANNER", "estimate").strip().lower()
-    if name not in PLANNERS:
-        raise MicropitError(f"MICROPIT_FFTW_PLANNER={name!r}: allowed {', '.join(PLANNERS)}")
-    return PLANNERS[name]
+    """The FFTW planner flag of a transform planned without wisdom (``auto``: ESTIMATE)."""
+    return PLANNERS[planner_name()]
+
+
+def wisdom_path() -> str:
+    """This machine's FFTW wisdom file: ``MICROPIT_FFTW_WISDOM``, else
+    ``$XDG_CACHE_HOME/micropit_hpc/fftw-wisdom-<host>-<arch>.txt`` (``~/.cache`` without
+    XDG_CACHE_HOME). Wisdom is only valid on the machine that measured it, hence the host in
+    the name (as Numba's cache is kept per machine)."""
+    given = os.environ.get("MICROPIT_FFTW_WISDOM")
+    if given:
+        return given
+    base = os.environ.get("XDG_CACHE_HOME") or os.path.join(os.path.expanduser("~"), ".cache")
+    host = "".join(c if c.isalnum() or c in "-_." else "_" for c in platform.node()) or "host"
+    return os.path.join(base, "micropit_hpc", f"fftw-wisdom-{host}-{platform.machine()}.txt")
+
+
+_wisdom_read: list[str] = []        # the wisdom files this process has imported
+
+
+def _import_wisdom() -> bool:
+    """Import this machine's wisdom file into FFTW once per process (and file); True when
+    FFTW knows some double-precision wisdom from it."""
+    path = wisdom_path()
+    if path in _wisdom_read:
+        return True
+    try:
+        with open(path, "rb") as fh:
+            text = fh.read()
+    except OSError:
+        return False
+    ok = bool(text) and bool(pyfftw.import_wisdom((text, b"", b""))[0])
+    if ok:
+        _wisdom_read.append(path)
+    return ok
+
+
+def plan_wisdom(shapes, batch: int | None = None) -> str:
+    """Measure the ``FFTW_MEASURE`` plans of the real 2-D transform pair (forward and inverse,
+    as :class:`RealFFT2` lays them out) for each shape of ``shapes`` and merge them into this
+    machine's wisdom file (:func:`wisdom_path`, written whole to a temporary file and renamed,
+    so a reader never sees half a file); returns its path. Run once per machine (``python -m
+    micropit_hpc.spectral plan 256 512 1024``): from then on every process plans those
+    transforms from the file (:class:`RealFFT2`, planner ``auto``). FFTW_MEASURE times
+    candidate algorithms on this machine (Frigo & Johnson, Proc. IEEE 93 (2005) 216–231)."""
+    if pyfftw is None:  # pragma: no cover
+        raise MicropitError("planning FFTW wisdom needs pyFFTW")
+    path = wisdom_path()
+    _import_wisdom()
+    for shape in shapes:
+        RealFFT2(shape, batch, flag="FFTW_MEASURE")
+    try:
+        with open(path, "rb") as fh:      # what another process added meanwhile
+            pyfftw.import_wisdom((fh.read(), b"", b""))
+    except OSError:
+        pass
+    os.makedirs(os.path.dirname(os.path.abspath(path)), exist_ok=True)
+    tmp = f"{path}.{os.getpid()}.tmp"
+    with open(tmp, "wb") as fh:
+        fh.write(pyfftw.export_wisdom()[0])
+    os.replace(tmp, path)
+    _wisdom_read.clear()
+    return path
 
 
 class RealFFT2:
@@ -150,8 +223,13 @@ class RealFFT2:
     normalised (numpy convention).
     """
 
-    def __init__(self, shape: tuple[int, int], batch: int | None = None, threads: int = 1):
+    def __init__(self, shape: tuple[int, int], batch: int | None = None, threads: int = 1,
+                 flag: str | None = None):
+        """``flag``: the FFTW planner flag; None: the planner of ``MICROPIT_FFTW_PLANNER``
+        (``auto``: the machine's measured plan where its wisdom file holds it, ESTIMATE
+        otherwise; :attr:`from_wisdom` says which)."""
         self.shape = (int(shape[0]), int(shape[1]))
+        self.from_wisdom = False
         self.batch = batch
         lead = () if batch is None else (int(batch),)
         self.real_shape = (*lead, *self.shape)
@@ -159,13 +237,24 @@ class RealFFT2:
         if pyfftw is not None:
             a = pyfftw.empty_aligned(self.real_shape, dtype="float64")
             c = pyfftw.empty_aligned(self.spectral_shape, dtype="complex128")
-            flags = (planner_flag(), "FFTW_DESTROY_INPUT")
-            self._fwd = pyfftw.FFTW(a, c, axes=(-2, -1), direction="FFTW_FORWARD",
-                                    flags=flags, threads=threads)
             c2 = pyfftw.empty_aligned(self.spectral_shape, dtype="complex128")
             a2 = pyfftw.empty_aligned(self.real_shape, dtype="float64")
-            self._inv = pyfftw.FFTW(c2, a2, axes=(-2, -1), direction="FFTW_BACKWARD",
-                                    flags=flags, threads=threads)
+
+            def plan(*flags):
+                return (pyfftw.FFTW(a, c, axes=(-2, -1), direction="FFTW_FORWARD",
+                                    flags=flags, threads=threads),
+                        pyfftw.FFTW(c2, a2, axes=(-2, -1), direction="FFTW_BACKWARD",
+                                    flags=flags, threads=threads))
+
+            if flag is None and planner_name() == "auto" and _import_wisdom():
+                try:        # both plans from the measured wisdom, or neither
+                    self._fwd, self._inv = plan("FFTW_MEASURE", "FFTW_DESTROY_INPUT",
+                                                "FFTW_WISDOM_ONLY")
+                    self.from_wisdom = True
+                except RuntimeError:        # this shape is not in the file
+                    pass
+            if not self.from_wisdom:
+                self._fwd, self._inv = plan(flag or planner_flag(), "FFTW_DESTROY_INPUT")
         else:  # pragma: no cover
             self._fwd = self._inv = None
 
@@ -312,3 +401,31 @@ def to_material_frame(field: np.ndarray, shift: float, dx: float) -> np.ndarray:
     if f == 0.0:
         return a
     return (1.0 - f) * a + f * np.roll(a, -1, axis=0)
+
+
+def main(argv=None) -> int:
+    """``python -m micropit_hpc.spectral plan N [N ...] [--batch B]``: measure the plans of the
+    N × N (or NxM) transforms into this machine's wisdom file (:func:`plan_wisdom`)."""
+    import argparse
+    import time
+
+    ap = argparse.ArgumentParser(prog="python -m micropit_hpc.spectral",
+                                 description="Measure FFTW plans once per machine.")
+    sub = ap.add_subparsers(dest="command", required=True)
+    p = sub.add_parser("plan", help="measure the plans of these grid sizes into the wisdom file")
+    p.add_argument("sizes", nargs="+", help="N (an N x N grid) or NxM")
+    p.add_argument("--batch", type=int, default=None)
+    args = ap.parse_args(argv)
+    shapes = []
+    for size in args.sizes:
+        nx, _, ny = size.lower().partition("x")
+        shapes.append((int(nx), int(ny or nx)))
+    t0 = time.perf_counter()
+    path = plan_wisdom(shapes, args.batch)
+    print(f"FFTW_MEASURE plans of {', '.join(args.sizes)} in {path} "
+          f"({time.perf_counter() - t0:.1f} s)")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

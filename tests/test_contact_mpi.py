@@ -100,6 +100,22 @@ def test_rough_plastic_dry_contact_and_its_warm_start_on_two_ranks_equal_one_ran
 
 
 @pytest.mark.mpi(min_size=2)
+def test_the_coarse_to_fine_start_on_two_ranks_equals_one_rank():
+    """A 128² rough plastic gap, cold: the distributed solve gathers the gap, runs the coarse
+    64² level on every rank alike and goes on over the slabs; equal to the one-rank solve
+    (which starts from the same coarse level) to 1e-12, and the start is taken."""
+    from mpi4py import MPI
+
+    g = Grid(128, 128, 4e-4, 4e-4)
+    z = gaussian_surface(g, 1e-6, 20e-6, 60e-6, seed=11).heights
+    ok, serial, dist = _compare_dry(g, z.max() - z, 0.8e9, 2.0e9, report="coarse-to-fine")
+    ok = (ok and serial.coarse_iterations > 0
+          and dist.coarse_iterations == serial.coarse_iterations
+          and np.count_nonzero(serial.pressure >= 2.0e9) > 20)
+    assert agree(MPI.COMM_WORLD, ok)
+
+
+@pytest.mark.mpi(min_size=2)
 def test_a_failing_dry_contact_fails_on_every_rank():
     from mpi4py import MPI
 

@@ -37,7 +37,8 @@ class DryContact:
     """Solution of a dry contact problem (SI).
 
     ``gap`` is the deformed gap g = g0 + u − δ (0 on elastic contact, < 0 where plastic);
-    ``approach`` is δ; ``error`` the final relative residual (see :func:`solve_dry_contact`).
+    ``approach`` is δ; ``error`` the final relative residual (see :func:`solve_dry_contact`);
+    ``iterations`` all CG steps of the solve, the coarse-to-fine start's included.
     From a distributed solve, ``pressure`` and ``gap`` (and so :attr:`contact` and
     :attr:`area_fraction`) are this rank's rows only.
     """
@@ -47,6 +48,9 @@ class DryContact:
     approach: float
     iterations: int
     error: float
+    #: Of ``iterations``, those spent on the coarse grids of the coarse-to-fine start (each
+    #: costs 1/4, 1/16, … of an iteration on the window's grid).
+    coarse_iterations: int = 0
 
     @property
     def contact(self) -> np.ndarray:
@@ -138,6 +142,11 @@ class ElasticHalfSpaces:
 #: Updates of the yielded set made with inexact (√tol) elastic solves before the search goes on
 #: at the full tolerance (:func:`solve_dry_contact`); 0: every solve at the full tolerance.
 LOOSE_UPDATES = 8
+
+#: Whether the CG direction restarts from steepest descent whenever points enter the contact
+#: (Polonsky & Keer 1999, δ = 0 after a change of the contact set). False: the directions stay
+#: conjugate through entries as through exits (:func:`_polonsky_keer`).
+RESET_ON_ENTRY = False
 
 #: The implementation of the iteration's elementwise stages that :func:`solve_dry_contact` uses
 #: when none is given: "auto" (compiled where Numba can be imported, else NumPy), "numba" or
@@ -242,7 +251,16 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
                    excluded: np.ndarray | None, N: int,
                    group: Reductions, stages) -> tuple[np.ndarray, np.ndarray, int, float]:
     """Elastic load-controlled contact, Polonsky & Keer (1999) eqs. (13)–(22); points in
-    ``excluded`` carry no pressure and may not enter. Returns (p, g − ḡ, iterations, ε).
+    ``excluded`` carry no pressure and may not enter. Unlike their δ = 0 after points enter the
+    contact, the direction stays conjugate through entries (:data:`RESET_ON_ENTRY`): each
+    step is still the exact minimiser along its direction, and the restarts, one at nearly
+    every iteration on a rough contact, had turned the CG into steepest descent, whose
+    iterations grow ∝ n (docs/performance.md, "Contact iterations that do not grow with the
+    grid": 131/204 → 105/144 iterations at 256²/512², the same pressure error). A kept
+    direction that no longer descends (Σ g t ≤ 0) is replaced by steepest descent in that
+    iteration (one more convolution): stepping backwards, points would enter at −τ g < 0 (seen
+    on a nearly flat, heavily worn surface, tests/test_hard_cases.py).
+    Returns (p, g − ḡ, iterations, ε).
     ``g0``, ``p``, ``excluded``: this rank's rows of the ``N`` points of the window (C-ordered;
     ``p`` is updated in place); every sum and scalar product is reduced over ``group``.
 
@@ -272,40 +290,172 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
         error = math.sqrt(G / n_contact) / scale
         if error <= tol:
             break
-        stages.direction(g, p, t, G / G_old if conjugate else 0.0, t if buf is None else buf)
+        while True:
+            stages.direction(g, p, t, G / G_old if conjugate else 0.0,
+                             t if buf is None else buf)
+            r = hs.response(t if buf is None else None)
+            r_sum, rt, t_sum, gt = group.sums(*stages.project(r, t, g, p))
+            if gt > 0.0 or not conjugate:
+                break
+            # a kept direction that no longer descends (Σ g t ≤ 0: the step would go
+            # backwards, and points entering at −τ g would enter with negative pressure):
+            # this iteration restarts from steepest descent, whose Σ g t = G > 0
+            conjugate = False
         G_old = G
-        r = hs.response(t if buf is None else None)
-        r_sum, rt, t_sum, gt = group.sums(*stages.project(r, t, g, p))
         curvature = rt - r_sum / n_contact * t_sum     # Σ (r − r̄_contact) t
         if curvature <= 0.0:   # no descent left at round-off level
             break
         tau = gt / curvature
         n_enter, p_sum = group.sums(*stages.update(p, t, g, c, tau, allowed,
                                                    p if buf is None else buf))
-        conjugate = not n_enter
+        conjugate = not (n_enter and RESET_ON_ENTRY)
         c = P * N / p_sum
     p *= c
     return p, g, it, error
 
 
+#: The grid at which ``tol`` is the relative residual ε itself (points along the longer side;
+#: :func:`residual_threshold`); 0: ε ≤ tol on every grid (the rule before, whose pressure
+#: error grew with the grid).
+TOLERANCE_POINTS = 256
+#: How the threshold on ε shrinks with the grid beyond :data:`TOLERANCE_POINTS`: (n₀/n)^a,
+#: a measured (docs/performance.md, "Contact iterations that do not grow with the grid").
+TOLERANCE_EXPONENT = 0.4
+
+
+def residual_threshold(tol: float, grid: Grid) -> float:
+    """The relative residual ε (:func:`solve_dry_contact`) at which a solve of tolerance
+    ``tol`` on ``grid`` stops: tol · min(1, (n₀/n)^a), n = max(nx, ny) the points along the
+    longer side, n₀ = :data:`TOLERANCE_POINTS`, a = :data:`TOLERANCE_EXPONENT`; so that one
+    ``tol`` leaves the same pressure error ‖p − p*‖/‖p*‖ (p* a tight reference) on every grid
+    of a window from n₀ up.
+
+    Why: ε measures the gap residual r; the pressure error it leaves is the inverse response
+    applied to r, p̂ − p̂* = (E'|k|/4) r̂ (docs/model.md §4.1 step 1), whose factor grows with
+    the wavenumber up to π/dx: on a window of fixed size refined (dx ∝ 1/n) the pressure
+    error of a given ε grows with n, ∝ n at most (a residual all at the grid scale). Measured
+    with this solver on a random rough surface and on the paper gear's rough contact at
+    256²–1024²: error/ε grows as n^0.40 on both (2.3 → 3.0 → 4.1 and 7.5 → 9.7 → 13, the
+    medians over tol = 1e-5 … 1e-11), hence a = 0.4. Below n₀ the plain ε ≤ tol is kept (no
+    solve is looser than before)."""
+    n0 = TOLERANCE_POINTS
+    if n0 <= 0:
+        return tol
+    return tol * min(1.0, n0 / max(grid.nx, grid.ny)) ** TOLERANCE_EXPONENT
+
+
+#: The coarse-to-fine start of a cold solve (:func:`solve_dry_contact` without ``p_init``):
+#: the window is coarsened by 2 while both sides stay even and the coarse grid keeps at least
+#: this many points per side; 0 turns the start off (every cold solve from uniform pressure).
+COARSEST = 64
+#: The tolerance of the coarse solves of that start: None, the fine solve's; else the larger of
+#: the two.
+COARSE_TOL: float | None = 1e-4
+
+
+def restrict(f: np.ndarray) -> np.ndarray:
+    """The field on the grid coarsened by 2 (even nx, ny): full weighting, the (1/4, 1/2, 1/4)
+    stencil along each axis, periodic, at the fine points (2I, 2J) that the coarse points
+    (I, J) coincide with (both grids put point i at (i − n/2)·dx, so coarse point I lies on
+    fine point 2I). Keeps the mean exactly in exact arithmetic (Trottenberg, Oosterlee &
+    Schüller, *Multigrid* (2001), ch. 2); here it restricts the undeformed gap."""
+    a = 0.5 * f + 0.25 * (np.roll(f, 1, axis=0) + np.roll(f, -1, axis=0))
+    a = a[::2]
+    b = 0.5 * a + 0.25 * (np.roll(a, 1, axis=1) + np.roll(a, -1, axis=1))
+    return np.ascontiguousarray(b[:, ::2])
+
+
+def prolong(fc: np.ndarray) -> np.ndarray:
+    """The coarse field on the grid refined by 2: bilinear interpolation, periodic (fine point
+    2I is coarse point I, fine point 2I + 1 the mean of coarse points I and I + 1; the
+    transpose of :func:`restrict` up to a factor 4, Trottenberg et al. (2001), ch. 2), one axis
+    after the other. Each new value is the mean of two (x, then y), so between equal values
+    (points held at the cap p_lim) it is that value exactly, and it stays within the coarse
+    field's bounds: a pressure in [0, p_lim] stays there."""
+    nxc, nyc = fc.shape
+    a = np.empty((2 * nxc, nyc))
+    a[::2] = fc
+    a[1::2] = 0.5 * (fc + np.roll(fc, -1, axis=0))
+    f = np.empty((2 * nxc, 2 * nyc))
+    f[:, ::2] = a
+    f[:, 1::2] = 0.5 * (a + np.roll(a, -1, axis=1))
+    return f
+
+
+def coarse_levels(grid: Grid, coarsest: int | None = None) -> int:
+    """How many times the coarse-to-fine start of :func:`solve_dry_contact` halves ``grid``:
+    while both sides are even and the halved grid keeps ≥ ``coarsest`` (None:
+    :data:`COARSEST`) points per side; 0 when ``coarsest`` is 0."""
+    m = COARSEST if coarsest is None else int(coarsest)
+    if m <= 0:
+        return 0
+    nx, ny, levels = grid.nx, grid.ny, 0
+    while nx % 2 == 0 and ny % 2 == 0 and min(nx, ny) // 2 >= m:
+        nx, ny, levels = nx // 2, ny // 2, levels + 1
+    return levels
+
+
+def _coarse_start(g0_whole: np.ndarray, grid: Grid, E_prime: float, P: float, p_lim: float,
+                  tol: float, max_iter: int, levels: int, kernel) -> tuple[np.ndarray, int]:
+    """The coarse-to-fine start (nested iteration, "full multigrid" start; Brandt, Math. Comp.
+    31 (1977) 333–390; Venner & Lubrecht, *Multilevel Methods in Lubrication* (2000)):
+    the whole window's gap restricted ``levels`` times (:func:`restrict`), the contact solved
+    on the coarsest grid from uniform pressure, its pressure (and with it the contact and the
+    yielded set: p > 0, p = p_lim) prolongated (:func:`prolong`) to start the solve of the next
+    finer grid, up to the grid below ``grid``; returns that pressure prolongated onto ``grid``
+    and the CG iterations spent. Serial on the whole window (a distributed solve runs it on
+    every rank alike: the coarse grids are ≤ 1/4 of the points). Each coarse problem is the
+    same contact on the same window (E', load, cap), sampled coarser."""
+    gaps = [g0_whole]
+    for _ in range(levels):
+        gaps.append(restrict(gaps[-1]))
+    p, used = None, 0
+    for level in range(levels, 0, -1):
+        g = gaps[level]
+        cg = Grid(g.shape[0], g.shape[1], grid.lx, grid.ly)
+        hs = ElasticHalfSpaces(cg, E_prime)
+        try:
+            sol = solve_dry_contact(g, hs, P, p_lim, tol=tol, max_iter=max_iter - used,
+                                    p_init=p, kernel=kernel, coarsest=0)
+        except ContactError:        # e.g. a tolerance below the coarse grid's round-off:
+            return None, used       # the fine solve starts from uniform pressure instead
+        used += sol.iterations
+        p = prolong(sol.pressure)
+    return p, used
+
+
 def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pressure: float,
                       p_lim: float = math.inf, *, tol: float, max_iter: int,
                       p_init: np.ndarray | None = None,
-                      kernel: str | None = None) -> DryContact:
+                      kernel: str | None = None, coarsest: int | None = None) -> DryContact:
     """Load-controlled elastic–perfectly-plastic contact of the undeformed gap ``gap0``.
 
     Elastic part: Polonsky & Keer (1999), converged when the relative residual
 
-        ε = rms(g − ḡ over the elastic contact points) / rms(g0 − mean g0) ≤ tol.
+        ε = rms(g − ḡ over the elastic contact points) / rms(g0 − mean g0)
+          ≤ tol · min(1, 256/n)^0.4   (n = max(nx, ny); :func:`residual_threshold`)
+
+    so that one ``tol`` leaves the same pressure error ‖p − p*‖/‖p*‖ on every grid of a window
+    from 256² up (the table in docs/performance.md, "Contact iterations that do not grow with
+    the grid").
+
+    Cold start (``p_init`` None): a coarse-to-fine sequence (:func:`_coarse_start`) on the
+    window coarsened by 2, 4, … down to ``coarsest`` points per side (None:
+    :data:`COARSEST`; 0: none, the start from uniform pressure): the gap restricted, the
+    pressure with its contact and yielded sets prolongated level by level; the solve on this
+    grid starts from there. Its answer meets the same conditions at the same tolerance as the
+    single-level solve's (tests/test_dry_contact.py); ``iterations`` counts the coarse
+    levels' too (:attr:`DryContact.coarse_iterations`).
 
     Cap 0 ≤ p ≤ p_lim (docs/model.md §4.1 step 3; p_lim = 0.6 H by default there): the plastic
     set is found by the fixed-point iteration of Jacq et al. (J. Tribol. 124 (2002) 653–667):
     points at p_lim are held at the cap, the elastic problem is solved on the rest, points whose
-    elastic pressure exceeds the cap join the set and points of the set whose gap opens leave
-    it, until the set no longer changes. ``kernel``: the implementation of the iteration's
-    elementwise stages (:func:`iteration_stages`; None: :data:`DEFAULT_KERNEL`); the compiled
-    and the NumPy stages agree to round-off. ``p_init`` warm-starts the iteration (e.g. the previous
-    time step's pressure); ``max_iter`` bounds the total number of CG steps. ``tol`` and
+    elastic pressure exceeds the cap join the set and points of the set whose gap opens (by
+    more than the residual ε·rms(g0 − mean g0)) leave it, until the set no longer changes.
+    ``kernel``: the implementation of the iteration's elementwise stages
+    (:func:`iteration_stages`; None: :data:`DEFAULT_KERNEL`); the compiled and the NumPy stages
+    agree to round-off. ``p_init`` warm-starts the iteration (e.g. the previous time step's
+    pressure); ``max_iter`` bounds the total number of CG steps. ``tol`` and
     ``max_iter`` are the scene's ``lubrication.tolerance`` and ``lubrication.max_iterations``
     (:class:`~micropit_hpc.scene.LubricationSpec`), which the callers pass.
 
@@ -348,17 +498,27 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         return DryContact(np.full_like(g0, P), np.zeros_like(g0), float(g0_mean), 0, 0.0)
 
     stages = iteration_stages(g0.shape, kernel)
+    used = 0
+    levels = coarse_levels(grid, coarsest) if p_init is None else 0
+    if levels:
+        whole = g0 if hs.slab is None else hs.slab.allgather_rows(g0)
+        p_whole, used = _coarse_start(whole, grid, hs.E_prime, P, p_lim,
+                                      tol if COARSE_TOL is None else max(tol, COARSE_TOL),
+                                      max_iter, levels, kernel)
+        p_init = None if p_whole is None else p_whole[rows]
+    coarse_used = used
     p = np.full_like(g0, P) if p_init is None else np.clip(p_init, 0.0, None).astype(float)
     if not group.any(p):
         p[...] = P
     plastic = p >= p_lim
-    used, error, settled = 0, math.inf, False
+    error, settled = math.inf, False
     updates = 0
     # With a finite cap the yielded set is first sought with inexact elastic solves (tolerance
     # √tol): a set that will change anyway needs no converged pressure. The search goes on at
     # tol once the set holds at √tol, once a solve starts already within √tol (the inexact
     # pressures no longer move, and a few points could flip in and out of the set for ever)
     # or after LOOSE_UPDATES updates. The answer has to meet the same conditions at tol.
+    tol_given, tol = tol, residual_threshold(tol, grid)
     phase_tol = (max(tol, math.sqrt(tol)) if math.isfinite(p_lim) and LOOSE_UPDATES > 0
                  else tol)
     while used < max_iter:
@@ -382,7 +542,11 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
             break
         p_total = np.where(plastic, p_lim, p)
         grow = p > p_lim
-        release = plastic & (g > 0.0)
+        # a yielded point leaves the set when its gap opens by more than the solve's residual
+        # (ε · rms(g0), the gap's accuracy): a gap open by less is g = 0 to that accuracy, and
+        # releasing it let points flip in and out of the set for ever (one iteration per
+        # update), seen on the paper gear's 512² and 1024² windows
+        release = plastic & (g > phase_tol * scale)
         n_grow, n_release = group.sums(np.count_nonzero(grow), np.count_nonzero(release))
         if phase_tol > tol and (it <= 1 or updates >= LOOSE_UPDATES
                                 or not (n_grow or n_release)):
@@ -397,11 +561,12 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         p = p_total
         np.minimum(p, p_lim, out=p)
     if not settled:
-        why = (f"relative residual {error:.3g} > tolerance {tol:.3g}" if error > tol else
+        why = (f"relative residual {error:.3g} > {tol:.3g} (tolerance {tol_given:.3g} on "
+               f"this grid)" if error > tol else
                f"the set of yielded points still changed at update {updates}")
         raise ContactError(
             f"dry contact did not converge: {why} after {used} iterations (raise "
             "lubrication.max_iterations or the tolerance; "
             "check that the roughness is resolved by the grid)")
     (delta_sum,) = group.sums((g0 + hs.displacement(p) - g).sum())
-    return DryContact(p, g, float(delta_sum / N), used, error)
+    return DryContact(p, g, float(delta_sum / N), used, error, coarse_used)

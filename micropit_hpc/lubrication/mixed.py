@@ -215,8 +215,14 @@ class MixedLubrication:
         """Pressure and clearance at one step. ``r_now``/``r_entry``: half spectra of each
         surface's rough clearance −z_i at time t and at the window's entry (t = 0).
 
-        ``p_init`` warm-starts the dry solves (default: uniform pressure); each solve of the
-        root search starts from the last one's pressure. ``warm``: a dict the caller keeps for
+        ``p_init`` starts the first loaded solve of the coarse scan over :data:`PHI_SCAN`
+        (default: uniform pressure); the scan's other solves start cold, with the
+        coarse-to-fine start of :func:`~.dry.solve_dry_contact`, and not from the last trial
+        load's pressure: at the paper gear's position 3 the cold solve takes
+        0.7–0.8 s at 512² where the start from the previous trial's pressure took 1.3–2.1 s,
+        and the whole step 22 s against 87 s at 1024²: docs/performance.md, "Contact
+        iterations that do not grow with the grid"); each solve of the root search starts
+        from the nearer end of its bracket. ``warm``: a dict the caller keeps for
         this time step from one load-cycle evaluation to the next (the surfaces are then at
         the same places, changed only by a sub-block's wear and pits): the solves at each
         trial load fraction of :data:`PHI_SCAN` start from the pressure they had in the last
@@ -235,7 +241,8 @@ class MixedLubrication:
         r_tot[0, 0] = 0.0
         H_t = self.lubricated_clearance(r_now, r_entry, p_mean, t)
         h_bar = self.h_mean
-        state = {"p": None if p_init is None else p_init[rows], "iters": 0}
+        start0 = None if p_init is None else p_init[rows]
+        state = {"p": start0, "iters": 0}
 
         def clearance_spectrum(phi):
             if prm.fluid_share == "scaled":
@@ -244,8 +251,12 @@ class MixedLubrication:
 
         def film(phi, near=None):
             """Mean clearance minus the flow balance's c_ρ h̄, and the dry solution at φ, its
-            solves started from ``near``'s pressure when given (else the last solve's)."""
-            start = state["p"] if near is None or not group.any(near.pressure) else near.pressure
+            solves started from ``near``'s pressure when given (else from ``p_init`` for the
+            first loaded solve, or cold: coarse to fine)."""
+            if near is None:        # the scan: p_init for its first loaded solve only
+                start = start0 if state["p"] is start0 else None
+            else:
+                start = near.pressure if group.any(near.pressure) else state["p"]
             if warm is not None:
                 start = warm.get(phi if phi in PHI_SCAN else "root", start)
             sol = solve_dry_contact(fft.inverse(clearance_spectrum(phi))[rows], hs,
