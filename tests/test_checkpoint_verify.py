@@ -11,9 +11,7 @@ import shutil
 import h5py
 import numpy as np
 import pytest
-from test_life import tiny_doc
-from test_restart import results_differ
-from test_run import _write_scene
+from helpers import results_differ, tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.io.checkpoint import CheckpointError, find_latest, verify_checkpoint
@@ -28,7 +26,7 @@ def doc_of():
 @pytest.fixture(scope="module")
 def straight(tmp_path_factory):
     d = tmp_path_factory.mktemp("verify")
-    scene = _write_scene(d / "tiny.toml", doc_of())
+    scene = write_scene(d / "tiny.toml", doc_of())
     assert main(["run", str(scene), "--out", str(d / "out")]) == 0
     names = sorted(p.name for p in (d / "out" / "checkpoints").iterdir())
     assert names == ["LATEST", "ckpt_000001.h5", "ckpt_000002.h5", "ckpt_000003.h5"]
@@ -143,7 +141,7 @@ def test_a_replaced_measured_surface_is_refused_unless_forced(tmp_path, capsys):
     np.save(tmp_path / "flank.npy", rng.normal(0, 0.16e-6, (32, 32)))
     doc["body1"]["surface"] = {"kind": "file", "file": "flank.npy",
                                "spacing_um": [6.25, 6.25], "rescale": True}
-    scene = _write_scene(tmp_path / "measured.toml", doc)
+    scene = write_scene(tmp_path / "measured.toml", doc)
     out = tmp_path / "out"
     stop = tmp_path / "STOP"
     stop.touch()

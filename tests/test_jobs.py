@@ -14,9 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
-from test_faults import _environment
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import environment, tiny_doc, write_scene
 
 from micropit_hpc.io import outdir
 from micropit_hpc.io.checkpoint import find_latest
@@ -28,7 +26,7 @@ pytestmark = pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mp
 def scene(tmp_path, blocks=4):
     doc = tiny_doc(slide_roll=(0.15, 0.3))
     doc["life"]["cycles_M"] = float(blocks)
-    return _write_scene(tmp_path / "jobtiny.toml", doc)
+    return write_scene(tmp_path / "jobtiny.toml", doc)
 
 
 def start_and_signal(cmd, env, sig, log_path, after="[progress] 1/"):
@@ -54,7 +52,7 @@ def start_and_signal(cmd, env, sig, log_path, after="[progress] 1/"):
 
 
 def job_env(tmp_path, **extra):
-    env = _environment()
+    env = environment()
     env.update(MICROPIT_PYTHON=sys.executable, NP="2", **extra)
     for v in ("SLURM_JOB_ID", "PBS_JOBID", "SLURM_JOB_END_TIME"):
         env.pop(v, None)
@@ -115,7 +113,7 @@ def test_a_signal_while_the_results_are_written_is_harmless(tmp_path):
     path = scene(tmp_path, blocks=2)
     out = tmp_path / "out"
     p = subprocess.run([sys.executable, "-c", WRITE_SLOWLY, "run", str(path), "--out",
-                        str(out)], env=_environment(), capture_output=True, text=True,
+                        str(out)], env=environment(), capture_output=True, text=True,
                        timeout=100)
     assert p.returncode == 0, p.stderr
     assert "signal 10 arrived after the last block; the results are complete" in p.stderr

@@ -13,9 +13,7 @@ import sys
 import numpy as np
 import pytest
 from conftest import ROOT
-from test_dry_contact import E_PRIME, _rough
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import E_PRIME, rough_gap, tiny_doc, write_scene
 
 from micropit_hpc import compiled
 from micropit_hpc.lubrication import dry
@@ -83,7 +81,7 @@ def test_compiled_stages_equal_the_numpy_stages():
 def test_compiled_solve_equals_the_numpy_solve(p_lim):
     """The whole dry solve with each kernel on a rough 128² gap, elastic and with the cap:
     the same iterations (± 2) and pressures within 1e-9 of the peak; both meet the load."""
-    g, gap0 = _rough(7)
+    g, gap0 = rough_gap(7)
     hs = ElasticHalfSpaces(g, E_PRIME)
     runs = {k: solve_dry_contact(gap0, hs, 1e9, p_lim=p_lim, tol=1e-10, max_iter=5000, kernel=k)
             for k in ("numpy", "numba")}
@@ -138,7 +136,7 @@ def test_compiled_stresses_equal_the_numpy_stresses(shape):
 def test_without_numba_the_numpy_path_is_taken(monkeypatch):
     """Numba made unimportable: "auto" runs the NumPy stages and combination with the same
     numbers as "numpy"; "numba" says what is missing; a wrong name is refused."""
-    g, gap0 = _rough(4, n=32)
+    g, gap0 = rough_gap(4, n=32)
     hs = ElasticHalfSpaces(g, E_PRIME)
     expect = solve_dry_contact(gap0, hs, 1e9, tol=1e-10, max_iter=5000, kernel="numpy")
     grid = Grid(16, 16, 1e-4, 1e-4)
@@ -174,7 +172,7 @@ def test_a_first_run_compiles_every_kernel_from_an_empty_cache_without_hanging(t
     made its cold compilation take minutes and a first run time out in CI, hidden here by a
     warm ``__pycache__``. The limit is a hang guard, several times the measured cold run
     (docs/performance.md §10), not a timing claim."""
-    scene = _write_scene(tmp_path / "t.toml", tiny_doc(slide_roll=(0.3,)))
+    scene = write_scene(tmp_path / "t.toml", tiny_doc(slide_roll=(0.3,)))
     cache = tmp_path / "numba-cache"
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_"))}
     env.update(NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(ROOT))

@@ -13,8 +13,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.errors import MicropitError
@@ -37,7 +36,7 @@ def run_dir(tmp_path_factory):
     doc["life"] = {"cycles_M": 2.0, "block_M": 1.0, "max_splits": 1}
     doc["window"] = {"n": 16, "ny": 12, "steps": 3}
     doc["stress"] = {"layers": 3}
-    scene = _write_scene(tmp / "tiny.toml", doc)
+    scene = write_scene(tmp / "tiny.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp / "out"), "--quiet"]) == 0
     return tmp / "out"
 

@@ -154,8 +154,7 @@ def test_reports_inside_a_unit_never_hold_back_the_first_units_line():
 def test_a_run_reports_inside_its_blocks_and_is_silent_with_quiet(tmp_path, capsys, monkeypatch):
     """`micropit run` writes a first line at once, then lines inside the block (item,
     sub-block, time step) with an ETA; --quiet writes none of them (warnings only)."""
-    from test_life import tiny_doc
-    from test_run import _write_scene
+    from helpers import tiny_doc, write_scene
 
     import micropit_hpc.progress as progress
     from micropit_hpc.cli import main
@@ -165,7 +164,7 @@ def test_a_run_reports_inside_its_blocks_and_is_silent_with_quiet(tmp_path, caps
     doc["life"] = {"cycles_M": 1.0, "block_M": 1.0, "max_splits": 2}
     doc["window"] = {"n": 16, "steps": 3}
     doc["stress"] = {"layers": 3}
-    scene = _write_scene(tmp_path / "tiny.toml", doc)
+    scene = write_scene(tmp_path / "tiny.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp_path / "a")]) == 0
     err = [ln for ln in capsys.readouterr().err.splitlines() if ln.startswith("[progress]")]
     assert err[0].startswith("[progress] 0/1 blocks") and err[0].endswith("starting")

@@ -4,7 +4,6 @@ A run stopped after k blocks (STOP file, wall-time budget, SIGUSR1, SIGKILL) and
 give the same summary.csv and results.h5 as the straight run, bit for bit.
 """
 
-import os
 import shutil
 import signal
 import subprocess
@@ -15,8 +14,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import environment, results_differ, tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.io.checkpoint import find_latest
@@ -32,32 +30,11 @@ def tiny3(**kw):
     return doc
 
 
-def results_differ(a: Path, b: Path) -> list[str]:
-    """Datasets of results.h5 that differ (wall times excepted), and summary.csv."""
-    out = []
-    if (a / "summary.csv").read_text() != (b / "summary.csv").read_text():
-        out.append("summary.csv")
-    with h5py.File(a / "results.h5", "r") as fa, h5py.File(b / "results.h5", "r") as fb:
-        names = []
-        fa.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) else None)
-        for n in names:
-            if n.endswith("wall_s"):
-                continue
-            if n not in fb:
-                out.append(n)
-                continue
-            x, y = fa[n][()], fb[n][()]
-            if not np.array_equal(x, y, equal_nan=np.asarray(x).dtype.kind == "f"):
-                out.append(n)
-        assert len(names) > 30
-    return out
-
-
 @pytest.fixture(scope="module")
 def straight(tmp_path_factory):
     """The straight 3-block run of the tiny study (4 items)."""
     d = tmp_path_factory.mktemp("straight")
-    scene = _write_scene(d / "tiny.toml", tiny3())
+    scene = write_scene(d / "tiny.toml", tiny3())
     assert main(["run", str(scene), "--out", str(d / "out")]) == 0
     return scene, d / "out"
 
@@ -114,7 +91,7 @@ def test_a_different_scene_is_refused_unless_forced(straight, tmp_path, capsys):
         p.unlink()
     doc = tiny3()
     doc["fatigue"] = {"woehler_B_MPa": 1650.0}
-    other = _write_scene(tmp_path / "other.toml", doc)
+    other = write_scene(tmp_path / "other.toml", doc)
     assert main(["run", str(other), "--out", str(out), "--restart"]) == 2
     err = capsys.readouterr().err
     assert "different scene" in err and "fatigue" in err and "--force" in err
@@ -155,18 +132,10 @@ def test_unknown_double_dash_options_are_still_errors(tmp_path, capsys):
     assert "unrecognized arguments: --restat" in capsys.readouterr().err
 
 
-def _environment():
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith(("OMPI_COMM_WORLD", "PMIX_", "PMI_"))}
-    env["PYTHONPATH"] = str(ROOT)
-    env["PYTHONUNBUFFERED"] = "1"
-    return env
-
-
 def _start_and_signal(cmd, sig, tmp_path):
     """Start ``cmd``, wait for its first progress line (block 1 done), send ``sig``."""
     log = open(tmp_path / "stderr.txt", "w+")
-    proc = subprocess.Popen(cmd, env=_environment(), stdout=subprocess.DEVNULL, stderr=log,
+    proc = subprocess.Popen(cmd, env=environment(), stdout=subprocess.DEVNULL, stderr=log,
                             text=True)
     deadline = time.monotonic() + 90
     while time.monotonic() < deadline:

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_life import tiny_doc
+from helpers import tiny_doc
 
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.runner import RunOptions, run_study

@@ -10,8 +10,7 @@ import xml.etree.ElementTree as ET
 import h5py
 import numpy as np
 import pytest
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 
@@ -24,7 +23,7 @@ def run_dir(tmp_path_factory):
     doc["window"] = {"n": 16, "ny": 12, "steps": 3}
     doc["stress"] = {"layers": 3}
     doc["lubricant"]["lambda_GFT"] = 0.3
-    scene = _write_scene(tmp / "tiny.toml", doc)
+    scene = write_scene(tmp / "tiny.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp / "out"), "--quiet"]) == 0
     return tmp
 
