@@ -14,8 +14,7 @@ import time
 from pathlib import Path
 
 import pytest
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.io import outdir
@@ -27,7 +26,7 @@ ROOT = Path(__file__).resolve().parents[1]
 def finished(tmp_path_factory):
     d = tmp_path_factory.mktemp("outdir")
     doc = tiny_doc(slide_roll=(0.3,))
-    scene = _write_scene(d / "tiny.toml", doc)
+    scene = write_scene(d / "tiny.toml", doc)
     assert main(["run", str(scene), "--out", str(d / "out")]) == 0
     return scene, d / "out"
 
@@ -82,22 +81,32 @@ def write_lock(out: Path, age_s: float = 0.0, **info):
     return lock
 
 
-def test_a_live_lock_refuses_the_folder(finished, tmp_path, capsys):
+@pytest.fixture
+def no_flock(monkeypatch):
+    """A file system without flock (ENOLCK): the fallback lock file with its heartbeat."""
+    import errno
+
+    def flock(fd, op):
+        raise OSError(errno.ENOLCK, "No locks available")
+    monkeypatch.setattr(outdir.fcntl, "flock", flock)
+
+
+def test_without_flock_a_live_lock_file_refuses_the_folder(finished, tmp_path, capsys, no_flock):
     scene, _ = finished
     out = tmp_path / "out"
     lock = write_lock(out, host=socket.gethostname(), pid=os.getpid(), job=None)
     assert run(scene, out) == 2
     err = capsys.readouterr().err
     assert f"--out {out} is in use by another run" in err and str(lock) in err
-    assert f"pid {os.getpid()}" in err
+    assert f"pid {os.getpid()}" in err and "has no flock" in err
     write_lock(out, host="elsewhere", pid=1, job=None)   # another host, refreshed recently
     assert run(scene, out) == 2
     assert not (out / "summary.csv").exists()
 
 
 @pytest.mark.parametrize("case", ["dead pid", "reused pid", "old", "same job", "garbage"])
-def test_a_stale_lock_is_taken_over_with_a_message(finished, tmp_path, capsys, monkeypatch,
-                                                   case):
+def test_without_flock_a_stale_lock_is_taken_over_with_a_message(finished, tmp_path, capsys,
+                                                                 monkeypatch, no_flock, case):
     scene, _ = finished
     out = tmp_path / "out"
     if case == "dead pid":
@@ -119,11 +128,22 @@ def test_a_stale_lock_is_taken_over_with_a_message(finished, tmp_path, capsys, m
     assert not (out / outdir.LOCK).exists()
 
 
+def test_a_lock_file_nobody_holds_is_taken_whatever_it_says(finished, tmp_path, capsys):
+    """With flock the file's contents decide nothing: a lock file left by a killed run (here
+    one naming this very process, which a pid test would call alive) is free."""
+    scene, _ = finished
+    out = tmp_path / "out"
+    write_lock(out, host=socket.gethostname(), pid=os.getpid(), job=None)
+    assert run(scene, out) == 0
+    assert "was released when its process ended: taking it" in capsys.readouterr().err
+    assert not (out / outdir.LOCK).exists()
+
+
 @pytest.mark.timeout(120)
 def test_two_runs_started_into_one_folder(tmp_path):
     doc = tiny_doc(slide_roll=(0.3, 0.15))
     doc["life"]["cycles_M"] = 4.0
-    scene = _write_scene(tmp_path / "t.toml", doc)
+    scene = write_scene(tmp_path / "t.toml", doc)
     out = tmp_path / "out"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     cmd = [sys.executable, "-m", "micropit_hpc", "run", str(scene), "--out", str(out)]
