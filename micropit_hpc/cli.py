@@ -188,11 +188,14 @@ def _run(args, comm, control, log, t0) -> int:
     lock = outdir.prepare(out, comm, restart=args.restart, overwrite=args.overwrite, log=log)
     try:
         status = _run_locked(args, comm, control, log, t0, plan, opts)
+        code = EXIT_CHECKPOINTED if status == "stopped" else 0
+        if lock is not None:        # rank 0: the verdict for a job script (outdir.EXIT_RECORD)
+            outdir.write_exit_record(out, code)
     finally:
         if lock is not None:
             lock.release()
     options_left_warning(comm)
-    return EXIT_CHECKPOINTED if status == "stopped" else 0
+    return code
 
 
 def _run_locked(args, comm, control, log, t0, plan, opts) -> str:

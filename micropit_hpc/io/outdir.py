@@ -40,6 +40,10 @@ from micropit_hpc.errors import MicropitError
 from micropit_hpc.parallel.share import raise_agreed
 
 LOCK = ".micropit.lock"
+#: The run's own exit code, written by rank 0 as the run ends (0: finished, 85: checkpointed
+#: and stopped) and removed when the next run starts: a job script reads it when the launcher's
+#: exit code says less (mpirun exits 1 after a SIGTERM to the whole job, whatever the ranks did).
+EXIT_RECORD = ".micropit.exit"
 MANIFEST = "manifest.json"
 STAGING = ".publish"
 #: What a run leaves in its folder (besides ``checkpoints/``): refused or cleared by a fresh run.
@@ -244,6 +248,13 @@ class OutputLock:
             self.path.unlink(missing_ok=True)
 
 
+def write_exit_record(out: Path, code: int) -> None:
+    """Record the run's exit code in ``out`` (rank 0, after the results or the checkpoint)."""
+    from micropit_hpc.io.atomic import write_text_atomic
+
+    write_text_atomic(Path(out) / EXIT_RECORD, f"{int(code)}\n")
+
+
 def run_leftovers(out: Path) -> list[str]:
     """The files of a previous run in ``out`` (results, manifest, checkpoints)."""
     found = [n for n in RUN_FILES if (out / n).exists()]
@@ -277,6 +288,7 @@ def prepare(out: Path, comm, *, restart: bool, overwrite: bool,
                 raise MicropitError(f"cannot create --out {out}: {e.strerror or e}") from None
             lock = OutputLock(out, log)
             lock.acquire()
+            (out / EXIT_RECORD).unlink(missing_ok=True)   # the previous run's verdict
             found = run_leftovers(out)
             if found and not restart:
                 if not overwrite:
