@@ -106,8 +106,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     rank0 = comm.rank == 0
     t0 = time.perf_counter()
 
-    def log(msg: str) -> None:    # --quiet keeps the warnings only
-        if rank0 and not (args.quiet and not msg.startswith("warning")):
+    def log(msg: str) -> None:    # every note; --quiet silences the progress lines only
+        if rank0:
             say(f"# {msg}")
 
     # From here on SIGUSR1/SIGTERM are noted, never fatal, until the results are written; a
@@ -209,7 +209,7 @@ def _run_locked(args, comm, control, log, t0, plan, opts) -> str:
     scene, n_blocks = plan.scene, plan.blocks
     last = plan.block_cycles(n_blocks)
     shorter = (f", the last of {last / 1e6:g} M" if last != scene.life.block else "")
-    for w in scene.warnings:
+    for w in (*scene.warnings, *plan.warnings):
         log(f"warning: {w}")
     if scene.lubricant.derived:
         log(scene.lubricant.derived)
@@ -238,7 +238,12 @@ def _out_dir(text: str) -> str:
 
 
 def _wall_time(text: str) -> float:
-    """Seconds from ``S``, ``M:S``, ``H:M:S`` or ``D-H:M:S`` (Slurm's forms)."""
+    """Seconds from ``S``, ``M:S``, ``H:M:S`` or ``D-H:M:S`` (Slurm's forms); errors quote the
+    value as given."""
+    given = text
+    if text.strip().startswith("-"):
+        raise argparse.ArgumentTypeError(f"the wall-time budget must be a positive, finite "
+                                         f"time, got {given!r}")
     try:
         days = 0
         if "-" in text:
@@ -253,10 +258,10 @@ def _wall_time(text: str) -> float:
         secs += 86400.0 * days
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"expected seconds or [D-]H:M:S, got {text!r}") from None
+            f"expected seconds or [D-]H:M:S, got {given!r}") from None
     if not math.isfinite(secs) or secs <= 0:
         raise argparse.ArgumentTypeError(f"the wall-time budget must be a positive, finite "
-                                         f"time, got {text!r}")
+                                         f"time, got {given!r}")
     return secs
 
 
@@ -290,6 +295,8 @@ def _cmd_scene(args: argparse.Namespace) -> int:
         if scene.lubricant.derived:
             print(f"  {scene.lubricant.derived}")
         _warn_scene(scene)
+        for w in plan.warnings:
+            print(f"micropit: warning: {w}", file=sys.stderr, flush=True)
         for p in plan.window_problems:
             print(f"micropit: warning: {scene.source}: the window does not hold the roughness: "
                   f"{p}", file=sys.stderr, flush=True)
@@ -394,7 +401,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run even when the up-front memory estimate (printed) exceeds the "
                         "memory available on this node")
     p.add_argument("--quiet", action="store_true",
-                   help="no progress lines or notes on stderr (warnings and errors only)")
+                   help="no progress lines on stderr (notes, warnings, checkpoint fallbacks "
+                        "and errors are still written)")
     p.add_argument("--stop-file", default=None, metavar="FILE",
                    help="stop at the next block boundary once FILE exists (checkpoint, "
                         "exit 85)")

@@ -139,24 +139,74 @@ def test_a_lock_file_nobody_holds_is_taken_whatever_it_says(finished, tmp_path, 
     assert not (out / outdir.LOCK).exists()
 
 
-@pytest.mark.timeout(120)
+@pytest.mark.parametrize("what", [".publish", "checkpoints", "summary.csv", "results.h5",
+                                  "checkpoints/LATEST", outdir.EXIT_RECORD])
+def test_an_obstruction_in_the_output_folder_is_refused_before_the_first_block(
+        finished, tmp_path, capsys, monkeypatch, what):
+    """A file where the run makes a folder (the staging folder .publish/ used to end a
+    finished run with a traceback; a file named checkpoints was found after block 1), or a
+    folder where it writes a file: one line naming it, before any block."""
+    from micropit_hpc import study
+
+    def no_block(*a, **k):
+        raise AssertionError("a block was computed")
+    monkeypatch.setattr(study.ItemRun, "run_block", no_block)
+    scene, _ = finished
+    out = tmp_path / "out"
+    out.mkdir()
+    if what in (".publish", "checkpoints"):
+        (out / what).write_text("stray")
+    else:
+        (out / what).mkdir(parents=True)
+    for extra in ((), ("--restart",), ("--overwrite",)):
+        assert run(scene, out, *extra) == 2
+        errors = [ln for ln in capsys.readouterr().err.splitlines()
+                  if ln.startswith("micropit: error:")]
+        assert len(errors) == 1 and str(out / what) in errors[0], errors
+        assert "remove or rename it" in errors[0]
+
+
+def test_quiet_silences_the_progress_only(finished, tmp_path, capsys):
+    """--quiet used to hide the checkpoint fallback too: "every checkpoint damaged, start
+    afresh" happened without a word."""
+    import shutil
+
+    scene, ref = finished
+    out = tmp_path / "out"
+    shutil.copytree(ref, out)
+    with open(out / "checkpoints" / "ckpt_000002.h5", "r+b") as fh:
+        fh.truncate(100)                                   # torn: falls back to block 1
+    capsys.readouterr()
+    assert run(scene, out, "--restart", "--quiet") == 0
+    err = capsys.readouterr().err
+    assert f"skipped {out / 'checkpoints' / 'ckpt_000002.h5'}" in err
+    assert "# estimate:" in err and "[progress]" not in err
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(200)
 def test_two_runs_started_into_one_folder(tmp_path):
+    """The second run waits for the lock (outdir.LOCK_WAIT_S), then is refused naming the
+    live first one, which then stops cleanly."""
     doc = tiny_doc(slide_roll=(0.3, 0.15))
-    doc["life"]["cycles_M"] = 4.0
+    doc["life"]["cycles_M"] = 100.0
     scene = write_scene(tmp_path / "t.toml", doc)
     out = tmp_path / "out"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
     cmd = [sys.executable, "-m", "micropit_hpc", "run", str(scene), "--out", str(out)]
-    first = subprocess.Popen(cmd, env=env, stderr=subprocess.PIPE, text=True)
+    first = subprocess.Popen([*cmd, "--stop-file", str(tmp_path / "STOP")], env=env,
+                             stderr=subprocess.PIPE, text=True)
     deadline = time.monotonic() + 60
     while not (out / outdir.LOCK).exists() and time.monotonic() < deadline:
         time.sleep(0.02)
-    second = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=60)
+    second = subprocess.run(cmd, env=env, capture_output=True, text=True, timeout=90)
+    (tmp_path / "STOP").touch()
     _, err1 = first.communicate(timeout=90)
-    assert first.returncode == 0, err1
+    assert first.returncode == 85, err1
     assert second.returncode == 2, second.stderr
-    assert "is in use by another run" in second.stderr
-    assert outdir.check_manifest(out) is None
+    assert f"is in use by another run (host {socket.gethostname()}, pid {first.pid}" \
+        in second.stderr
+    assert "waiting up to" in second.stderr
 
 
 def test_a_kill_between_the_renames_leaves_no_manifest(tmp_path, monkeypatch):
@@ -201,6 +251,8 @@ def test_files_follow_the_umask(finished, tmp_path, mask, mode):
     (["--out", "X", "--restart", "--overwrite"], "give one of them"),
     (["--out", "X", "--max-wall", "nan"], "positive, finite time, got 'nan'"),
     (["--out", "X", "--max-wall", "inf"], "positive, finite time, got 'inf'"),
+    (["--out", "X", "--max-wall", "-1"], "positive, finite time, got '-1'"),
+    (["--out", "X", "--max-wall", "1-x"], "expected seconds or [D-]H:M:S, got '1-x'"),
     (["--out", "X", "-micropit_checkpoint_keep", "abc"],
      "-micropit_checkpoint_keep abc: expected a whole number ≥ 1"),
     (["--out", "X", "-micropit_checkpoint_every", "0"],

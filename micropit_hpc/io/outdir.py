@@ -248,6 +248,28 @@ class OutputLock:
             self.path.unlink(missing_ok=True)
 
 
+def check_obstructions(out: Path) -> None:
+    """Refuse, before the first block, a folder where something stands in the way of what the
+    run writes: a file where ``checkpoints/`` or the staging folder ``.publish/`` goes, a
+    folder where a result file, the checkpoint pointer or the exit record goes, or a folder
+    (``out`` or ``checkpoints/``) this process cannot write in."""
+    out = Path(out)
+    found = []
+    for name in ("checkpoints", STAGING):
+        if (out / name).exists() and not (out / name).is_dir():
+            found.append(f"{out / name} is a file, where the run makes its folder "
+                         f"{name}/: remove or rename it")
+    for name in (*RUN_FILES, EXIT_RECORD, "checkpoints/LATEST"):
+        if (out / name).is_dir():
+            found.append(f"{out / name} is a folder, where the run writes a file: remove or "
+                         f"rename it")
+    for d in (out, out / "checkpoints"):
+        if d.is_dir() and not os.access(d, os.W_OK | os.X_OK):
+            found.append(f"cannot write in {d}")
+    if found:
+        raise MicropitError(f"--out {out}: " + "; ".join(found))
+
+
 def write_exit_record(out: Path, code: int) -> None:
     """Record the run's exit code in ``out`` (rank 0, after the results or the checkpoint)."""
     from micropit_hpc.io.atomic import write_text_atomic
@@ -288,6 +310,7 @@ def prepare(out: Path, comm, *, restart: bool, overwrite: bool,
                 raise MicropitError(f"cannot create --out {out}: {e.strerror or e}") from None
             lock = OutputLock(out, log)
             lock.acquire()
+            check_obstructions(out)
             (out / EXIT_RECORD).unlink(missing_ok=True)   # the previous run's verdict
             found = run_leftovers(out)
             if found and not restart:
