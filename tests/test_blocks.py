@@ -57,6 +57,7 @@ def test_micropit_scene_refuses_it_too(tmp_path, capsys):
     assert "life.block_M = 1e-06" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_run_with_a_non_dividing_block_ends_at_exactly_the_life(tmp_path, capsys):
     doc = tiny_doc(slide_roll=(0.3,))

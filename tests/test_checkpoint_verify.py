@@ -57,6 +57,7 @@ def restart(scene, out, capsys):
     return rc, capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_every_dataset_carries_a_checksum(straight):
     _, ref = straight
     with h5py.File(ref / "checkpoints" / "ckpt_000003.h5", "r") as f:
@@ -67,6 +68,7 @@ def test_every_dataset_carries_a_checksum(straight):
         assert len(f.attrs["run_id"]) == 32
 
 
+@pytest.mark.slow
 def test_flipped_bytes_inside_the_damage_fall_back_to_the_previous_checkpoint(
         straight, tmp_path, capsys):
     scene, ref = straight
@@ -81,6 +83,7 @@ def test_flipped_bytes_inside_the_damage_fall_back_to_the_previous_checkpoint(
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dataset", ["body1/damage", "state", "records", "body2/heights"])
 def test_a_missing_dataset_falls_back(straight, tmp_path, capsys, dataset):
     scene, ref = straight
@@ -95,6 +98,7 @@ def test_a_missing_dataset_falls_back(straight, tmp_path, capsys, dataset):
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_nan_heights_and_a_missing_attribute_fall_back_twice(straight, tmp_path, capsys):
     scene, ref = straight
     out = copy_of(ref, tmp_path)
@@ -112,6 +116,7 @@ def test_nan_heights_and_a_missing_attribute_fall_back_twice(straight, tmp_path,
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_a_newer_leftover_of_another_run_is_not_used(straight, tmp_path, capsys):
     """LATEST names block 2; a block-3 file of another run (other run_id) is a leftover."""
     scene, ref = straight
@@ -126,6 +131,7 @@ def test_a_newer_leftover_of_another_run_is_not_used(straight, tmp_path, capsys)
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_a_newer_checkpoint_of_the_same_run_is_used(straight, tmp_path):
     """A crash between the rename of block 3 and the update of LATEST loses nothing."""
     _, ref = straight
@@ -134,6 +140,7 @@ def test_a_newer_checkpoint_of_the_same_run_is_used(straight, tmp_path):
     assert find_latest(out / "checkpoints") == out / "checkpoints" / "ckpt_000003.h5"
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_replaced_measured_surface_is_refused_unless_forced(tmp_path, capsys):
     doc = doc_of()

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from micropit_hpc.parallel import SerialComm
-from micropit_hpc.parallel.control import EXIT_CHECKPOINTED, StopControl
+from micropit_hpc.parallel.control import StopControl
 
 
 class FakeClock:
@@ -21,13 +21,6 @@ class FakeClock:
 
     def __call__(self):
         return self.t
-
-
-def test_exit_code_is_the_one_the_job_scripts_requeue_on():
-    assert EXIT_CHECKPOINTED == 85
-    root = Path(__file__).resolve().parents[1]
-    for script in ("jobs/slurm_array.sh", "jobs/pbs.sh"):
-        assert "85" in (root / script).read_text()
 
 
 @pytest.mark.parametrize("sig", [signal.SIGUSR1, signal.SIGTERM])

@@ -181,6 +181,7 @@ def _micropit(*args):
                           capture_output=True, text=True, timeout=240)
 
 
+@pytest.mark.slow
 def test_snapshot_command_writes_hdf5_and_maps(tmp_path):
     h5py = pytest.importorskip("h5py")
     out = _micropit("snapshot", str(gear_scene(tmp_path)), "--position", "3", "--step", "2",
@@ -200,6 +201,7 @@ def test_snapshot_command_writes_hdf5_and_maps(tmp_path):
     assert not list((tmp_path / "snap").glob("*.tmp*"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args,message", [
     (("--position", "12"), "positions 1 to 11"),
     (("--step", "9"), "steps 1 to 4"),

@@ -23,6 +23,7 @@ def run(tmp_path, doc, *extra):
     return main(["run", str(path), "--out", str(tmp_path / "out"), *extra])
 
 
+@pytest.mark.slow
 def test_the_estimate_is_printed_and_grows_with_the_window(tmp_path, capsys):
     rc = run(tmp_path, tiny_doc(slide_roll=(0.3,)))
     assert rc == 0
@@ -40,6 +41,7 @@ def test_the_estimate_is_printed_and_grows_with_the_window(tmp_path, capsys):
     assert b.total_s > 500 * a.total_s
 
 
+@pytest.mark.slow
 def test_a_window_of_8192_is_refused_with_the_estimate(tmp_path, capsys):
     doc = tiny_doc(slide_roll=(0.3,))
     doc["window"]["n"] = 8192
@@ -51,6 +53,7 @@ def test_a_window_of_8192_is_refused_with_the_estimate(tmp_path, capsys):
     assert "Traceback" not in err and not (tmp_path / "out").exists()
 
 
+@pytest.mark.slow
 def test_100000_positions_are_refused(tmp_path, capsys):
     text = (ROOT / "scenes" / "quick.toml").read_text().replace("n = 5 ", "n = 100000 ")
     path = tmp_path / "many.toml"
@@ -61,6 +64,7 @@ def test_100000_positions_are_refused(tmp_path, capsys):
     assert "100000 work items" in err and "--position" in err and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_a_npy_header_claiming_200000_squared_is_refused(tmp_path, capsys):
     with open(tmp_path / "huge.npy", "wb") as fh:
         np.lib.format.write_array_header_1_0(
@@ -75,6 +79,7 @@ def test_a_npy_header_claiming_200000_squared_is_refused(tmp_path, capsys):
     assert "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_ignore_memory_estimate_runs_anyway(tmp_path, capsys, monkeypatch):
     monkeypatch.setattr(estimate, "available_memory", lambda: 1.0)   # a node with 1 byte
     rc = run(tmp_path, tiny_doc(slide_roll=(0.3,)))
@@ -83,6 +88,7 @@ def test_ignore_memory_estimate_runs_anyway(tmp_path, capsys, monkeypatch):
     assert rc == 0
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
 def test_under_mpirun_the_refusal_is_printed_once(tmp_path):

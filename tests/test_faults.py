@@ -27,6 +27,7 @@ def scene(tmp_path, name="tiny.toml", **life):
     return write_scene(tmp_path / name, doc)
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_solver_failure_on_one_rank_ends_the_job(tmp_path):
     """The issue's reproduction: 'did not converge' on a rank used to leave both spinning."""
@@ -41,6 +42,7 @@ def test_a_solver_failure_on_one_rank_ends_the_job(tmp_path):
     assert "Traceback" not in err
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_solver_failure_in_a_group_of_two_ranks_ends_the_job(tmp_path):
     """--ranks-per-item 2: the group root fails in the contact solve while its partner waits
@@ -54,6 +56,7 @@ def test_a_solver_failure_in_a_group_of_two_ranks_ends_the_job(tmp_path):
     assert len(lines) == 1 and "rank 0 of 2" in lines[0] and "did not converge" in lines[0]
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_an_error_wrongly_marked_collective_still_ends_the_job(tmp_path):
     """The safety net: an error marked collective that only rank 1 meets waits
@@ -68,6 +71,7 @@ def test_an_error_wrongly_marked_collective_still_ends_the_job(tmp_path):
     assert f"within {COLLECTIVE_EXIT_WAIT_S:g} s" in lines[0]
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_bug_on_rank_1_mid_block_ends_the_job_with_its_traceback_once(tmp_path):
     rc, err = mpirun_fault(["run", scene(tmp_path), "--out", tmp_path / "out"], ("internal", 1))
@@ -77,6 +81,7 @@ def test_a_bug_on_rank_1_mid_block_ends_the_job_with_its_traceback_once(tmp_path
     assert err.count("Traceback") == 1
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(180)
 def test_a_failure_on_rank_1_after_the_restart_read_ends_the_job(tmp_path):
     path = scene(tmp_path)
@@ -91,6 +96,7 @@ def test_a_failure_on_rank_1_after_the_restart_read_ends_the_job(tmp_path):
     assert len(lines) == 1 and lines[0].startswith("micropit: error: rank 1 of 2: injected"), err
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_failure_inside_the_collective_checkpoint_write_ends_the_job(tmp_path):
     rc, err = mpirun_fault(["run", scene(tmp_path), "--out", tmp_path / "out"],
@@ -101,6 +107,7 @@ def test_a_failure_inside_the_collective_checkpoint_write_ends_the_job(tmp_path)
     assert not list((tmp_path / "out" / "checkpoints").glob("ckpt_*.h5"))
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_failure_writing_the_results_ends_the_job(tmp_path):
     rc, err = mpirun_fault(["run", scene(tmp_path), "--out", tmp_path / "out"], ("results", 0))
@@ -109,6 +116,7 @@ def test_a_failure_writing_the_results_ends_the_job(tmp_path):
     assert len(lines) == 1 and "rank 0 of 2: injected fault: cannot write" in lines[0], err
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 @pytest.mark.parametrize("args, text", [
     (["--ranks-per-item", "3"], "--ranks-per-item 3: 2 MPI ranks cannot be split"),
@@ -123,6 +131,7 @@ def test_an_error_every_rank_raises_is_printed_once_without_abort(tmp_path, args
     assert "MPI_ABORT" not in err
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(180)
 def test_a_damaged_checkpoint_under_mpirun_falls_back(tmp_path):
     """The issue's reproduction: flipped bits in the heights of the newest checkpoint used to
@@ -145,6 +154,7 @@ def test_a_damaged_checkpoint_under_mpirun_falls_back(tmp_path):
     assert err.count("skipped") == 1 and "Traceback" not in err
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_usage_error_under_mpirun_is_printed_once(tmp_path):
     rc, err = mpirun_fault(["run", scene(tmp_path), "--out", tmp_path / "out", "--max-wall", "nan"])

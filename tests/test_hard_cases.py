@@ -184,6 +184,7 @@ def test_pressure_range(p0, monkeypatch):
     _run_item(run, monkeypatch)
 
 
+@pytest.mark.slow
 def test_pressure_above_the_cap_is_a_clear_error(tmp_path, capsys):
     """p0 4.5 GPa > p_lim: `micropit run` exits 2 naming scene, item, p̄ and p_lim."""
     doc = tiny_doc(slide_roll=(0.3,))
@@ -288,6 +289,7 @@ def test_zero_roughness(model, how, monkeypatch):
         assert max(r.Rq) <= 1e-9 * max(r.wear_max)
 
 
+@pytest.mark.slow
 def test_zero_roughness_run_writes_an_infinite_lambda(tmp_path):
     """`micropit run`, two smooth bodies: Λ = λ_GF = inf in the outputs, the rest finite."""
     import h5py
@@ -534,6 +536,7 @@ def test_gear_path_ends(sharing, end, offset_deg, rq_um, monkeypatch):
         assert records[0].Ap == (0.0, 0.0) and max(records[0].max_damage) < 1e-6
 
 
+@pytest.mark.slow
 def test_gear_path_ends_through_the_run_command(tmp_path, capsys):
     """`micropit run` 1e-9° inside A and E: exit 0 with finite rows, or exit 2; no traceback."""
     # p0 ≈ 17 kPa, Λ ≈ 3.1: the full-film (smooth) level

@@ -54,6 +54,7 @@ def _same(a, b):
     return a.shape == b.shape and np.array_equal(a, b)
 
 
+@pytest.mark.slow
 def test_every_dataset_and_attribute_reads_back_as_written(run_dir):
     res = load_results(run_dir)
     assert res.file == run_dir / "results.h5" and res.folder == run_dir
@@ -94,6 +95,7 @@ def test_every_dataset_and_attribute_reads_back_as_written(run_dir):
     assert res.path_points == {}                                   # a disc rig: no A–E
 
 
+@pytest.mark.slow
 def test_shapes_units_and_the_summary_agree(run_dir):
     res = load_results(run_dir)
     assert res.status == "done" and res.scene["study"]["name"] == "tiny"
@@ -131,6 +133,7 @@ def test_shapes_units_and_the_summary_agree(run_dir):
             assert 100 * pitted.mean() == pytest.approx(res.history[iid]["Ap"][-1, body - 1])
 
 
+@pytest.mark.slow
 def test_the_results_are_frozen(run_dir):
     res = load_results(run_dir)
     with pytest.raises(dataclasses.FrozenInstanceError):
@@ -156,6 +159,7 @@ def _broken(run_dir, tmp_path, change) -> Path:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("change", "message"), [
     (lambda f: f.__delitem__("history/item_00001/Ap"), "dataset history/item_00001/Ap is missing"),
     (lambda f: f.__delitem__("grid/z"), "dataset grid/z is missing"),
@@ -172,6 +176,7 @@ def test_a_missing_part_is_named(run_dir, tmp_path, change, message):
     assert isinstance(e.value, MicropitError)
 
 
+@pytest.mark.slow
 def test_a_missing_map_is_named(run_dir, tmp_path):
     out = _broken(run_dir, tmp_path, lambda f: f.__delitem__("maps/item_00001/body2/wear"))
     res = load_results(out)
@@ -182,6 +187,7 @@ def test_a_missing_map_is_named(run_dir, tmp_path):
         res.maps(5, 1)
 
 
+@pytest.mark.slow
 def test_not_a_results_file(run_dir, tmp_path):
     with pytest.raises(ResultsError, match="no such file or folder"):
         load_results(tmp_path / "nothing")
@@ -202,6 +208,7 @@ def test_not_a_results_file(run_dir, tmp_path):
         load_results(tmp_path / "other.h5")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("keep", [0.05, 0.5, 0.9])
 def test_a_truncated_file_is_a_clear_error(run_dir, tmp_path, keep):
     data = (run_dir / "results.h5").read_bytes()
@@ -214,6 +221,7 @@ def test_a_truncated_file_is_a_clear_error(run_dir, tmp_path, keep):
             res.maps(iid, 2)
 
 
+@pytest.mark.slow
 def test_a_truncated_summary_is_a_clear_error(run_dir, tmp_path):
     text = (run_dir / "summary.csv").read_text()
     (tmp_path / "summary.csv").write_text(text[:len(text) // 2 + 7])
@@ -243,6 +251,7 @@ def test_postprocess_scripts_need_no_h5py():
         assert "import h5py" not in text and "h5py." not in text, script.name
 
 
+@pytest.mark.slow
 def test_the_plot_scripts_run_on_a_real_run(run_dir, tmp_path):
     run = tmp_path / "run"
     shutil.copytree(run_dir, run, ignore=shutil.ignore_patterns("checkpoints"))

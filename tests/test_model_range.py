@@ -201,6 +201,7 @@ def test_each_limit_raises_its_flag_and_one_warning_line(kw, flag):
     assert block_flags(inside, 25e-6, window_ok=False) == ["window"]
 
 
+@pytest.mark.slow
 def test_a_run_reports_the_range_in_summary_log_and_results(tmp_path, capsys):
     """The quick gear scene's position 2 (single-pair zone, dry, asperity stresses far past the
     S–N line's data: more than 90 % of the first block's damage from N < n_min) in a short

@@ -35,6 +35,7 @@ def run(scene, out, *extra):
     return main(["run", str(scene), "--out", str(out), *map(str, extra)])
 
 
+@pytest.mark.slow
 def test_a_finished_run_publishes_a_manifest_matching_both_files(finished):
     """summary.csv, results.h5 and the XDMF that describes it appear together."""
     _, out = finished
@@ -45,6 +46,7 @@ def test_a_finished_run_publishes_a_manifest_matching_both_files(finished):
     assert not (out / outdir.LOCK).exists() and not (out / outdir.STAGING).exists()
 
 
+@pytest.mark.slow
 def test_a_fresh_run_into_a_finished_folder_is_refused(finished, tmp_path, capsys):
     import shutil
 
@@ -91,6 +93,7 @@ def no_flock(monkeypatch):
     monkeypatch.setattr(outdir.fcntl, "flock", flock)
 
 
+@pytest.mark.slow
 def test_without_flock_a_live_lock_file_refuses_the_folder(finished, tmp_path, capsys, no_flock):
     scene, _ = finished
     out = tmp_path / "out"
@@ -104,6 +107,7 @@ def test_without_flock_a_live_lock_file_refuses_the_folder(finished, tmp_path, c
     assert not (out / "summary.csv").exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("case", ["dead pid", "reused pid", "old", "same job", "garbage"])
 def test_without_flock_a_stale_lock_is_taken_over_with_a_message(finished, tmp_path, capsys,
                                                                  monkeypatch, no_flock, case):
@@ -128,6 +132,7 @@ def test_without_flock_a_stale_lock_is_taken_over_with_a_message(finished, tmp_p
     assert not (out / outdir.LOCK).exists()
 
 
+@pytest.mark.slow
 def test_a_lock_file_nobody_holds_is_taken_whatever_it_says(finished, tmp_path, capsys):
     """With flock the file's contents decide nothing: a lock file left by a killed run (here
     one naming this very process, which a pid test would call alive) is free."""
@@ -139,6 +144,7 @@ def test_a_lock_file_nobody_holds_is_taken_whatever_it_says(finished, tmp_path, 
     assert not (out / outdir.LOCK).exists()
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("what", [".publish", "checkpoints", "summary.csv", "results.h5",
                                   "checkpoints/LATEST", outdir.EXIT_RECORD])
 def test_an_obstruction_in_the_output_folder_is_refused_before_the_first_block(
@@ -166,6 +172,7 @@ def test_an_obstruction_in_the_output_folder_is_refused_before_the_first_block(
         assert "remove or rename it" in errors[0]
 
 
+@pytest.mark.slow
 def test_quiet_silences_the_progress_only(finished, tmp_path, capsys):
     """--quiet used to hide the checkpoint fallback too: "every checkpoint damaged, start
     afresh" happened without a word."""
@@ -231,6 +238,7 @@ def test_a_kill_between_the_renames_leaves_no_manifest(tmp_path, monkeypatch):
     assert "manifest.json" in outdir.check_manifest(out)   # readers know the pair is torn
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mask, mode", [(0o022, 0o644), (0o077, 0o600), (0o002, 0o664)])
 def test_files_follow_the_umask(finished, tmp_path, mask, mode):
     scene, _ = finished
@@ -245,6 +253,7 @@ def test_files_follow_the_umask(finished, tmp_path, mask, mode):
         assert oct((out / name).stat().st_mode & 0o777) == oct(mode), name
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args, text", [
     (["--out", ""], "expected a folder name, got an empty one"),
     (["--out", "X", "--force"], "--force only applies with --restart"),

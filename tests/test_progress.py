@@ -163,6 +163,7 @@ def test_reports_inside_a_unit_never_hold_back_the_first_units_line():
     assert [ln.split(" — ")[1] for ln in lines] == ["starting", "block 1"]
 
 
+@pytest.mark.slow
 def test_a_run_reports_inside_its_blocks_and_is_silent_with_quiet(tmp_path, capsys, monkeypatch):
     """`micropit run` writes a first line at once, then lines inside the block (item,
     sub-block, time step) with an ETA; --quiet writes none of them (the notes and warnings

@@ -344,6 +344,7 @@ def test_maps_that_are_not_height_maps_name_the_fault(tmp_path, data, words):
     assert words in text and "smaller than the simulation window" not in text
 
 
+@pytest.mark.slow
 def test_the_scene_run_names_a_map_fault_in_one_line(tmp_path, capsys):
     """Through `micropit run`: the error names the file, the body's surface key and the
     fault (not the window size)."""

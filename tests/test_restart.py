@@ -39,6 +39,7 @@ def straight(tmp_path_factory):
     return scene, d / "out"
 
 
+@pytest.mark.slow
 def test_record_rows_round_trip(straight):
     _, out = straight
     with h5py.File(out / "checkpoints" / "ckpt_000003.h5", "r") as f:
@@ -48,6 +49,7 @@ def test_record_rows_round_trip(straight):
         assert np.array_equal(record_row(record_from_row(row)), row)
 
 
+@pytest.mark.slow
 def test_a_stopped_and_restarted_run_equals_the_straight_run(straight, tmp_path, capsys):
     scene, ref = straight
     stop = tmp_path / "STOP"
@@ -66,6 +68,7 @@ def test_a_stopped_and_restarted_run_equals_the_straight_run(straight, tmp_path,
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_restart_skips_a_torn_checkpoint_and_a_leftover_tmp(straight, tmp_path, capsys):
     scene, ref = straight
     out = tmp_path / "out"
@@ -83,6 +86,7 @@ def test_restart_skips_a_torn_checkpoint_and_a_leftover_tmp(straight, tmp_path, 
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_a_different_scene_is_refused_unless_forced(straight, tmp_path, capsys):
     scene, ref = straight
     out = tmp_path / "out"
@@ -102,6 +106,7 @@ def test_a_different_scene_is_refused_unless_forced(straight, tmp_path, capsys):
     assert "other work items" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_restart_without_a_checkpoint_starts_afresh(straight, tmp_path, capsys):
     scene, ref = straight
     out = tmp_path / "out"
@@ -110,6 +115,7 @@ def test_restart_without_a_checkpoint_starts_afresh(straight, tmp_path, capsys):
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_the_wall_time_budget_stops_at_a_block_boundary(straight, tmp_path, capsys):
     scene, _ = straight
     out = tmp_path / "out"
@@ -119,6 +125,7 @@ def test_the_wall_time_budget_stops_at_a_block_boundary(straight, tmp_path, caps
     assert find_latest(out / "checkpoints") is not None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", ["0", "-5", "1:2:3:4", "ten"])
 def test_a_bad_wall_time_is_a_clear_error(tmp_path, capsys, value):
     with pytest.raises(SystemExit):
@@ -126,6 +133,7 @@ def test_a_bad_wall_time_is_a_clear_error(tmp_path, capsys, value):
     assert "--max-wall" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_unknown_double_dash_options_are_still_errors(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["run", "x.toml", "--out", str(tmp_path), "--restat"])
@@ -151,6 +159,7 @@ def _start_and_signal(cmd, sig, tmp_path):
     return rc, log.read()
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(240)
 def test_sigusr1_checkpoints_and_exits_85_then_restart_equals_straight(straight, tmp_path):
     scene, ref = straight
@@ -164,6 +173,7 @@ def test_sigusr1_checkpoints_and_exits_85_then_restart_equals_straight(straight,
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(240)
 def test_a_killed_run_restarts_to_the_straight_result(straight, tmp_path):
     scene, ref = straight
@@ -175,6 +185,7 @@ def test_a_killed_run_restarts_to_the_straight_result(straight, tmp_path):
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
 def test_sigusr1_to_mpirun_stops_both_ranks_with_85(straight, tmp_path):

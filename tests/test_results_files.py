@@ -28,6 +28,7 @@ def run_dir(tmp_path_factory):
     return tmp
 
 
+@pytest.mark.slow
 def test_every_dataset_has_a_unit_and_the_grid_has_coordinates(run_dir):
     missing = []
     with h5py.File(run_dir / "out" / "results.h5", "r") as f:
@@ -47,6 +48,7 @@ def test_every_dataset_has_a_unit_and_the_grid_has_coordinates(run_dir):
     assert missing == []
 
 
+@pytest.mark.slow
 def test_the_xdmf_references_every_map_with_its_shape(run_dir):
     """Parse results.xdmf as any XDMF reader does and read every referenced dataset."""
     xdmf = run_dir / "out" / "results.xdmf"
@@ -79,6 +81,7 @@ def test_the_xdmf_references_every_map_with_its_shape(run_dir):
     assert maps | {"/grid/x", "/grid/y", "/grid/z"} == seen
 
 
+@pytest.mark.slow
 def test_provenance_names_the_libraries_and_hashes_the_inputs(run_dir):
     import numpy
     import scipy

@@ -31,6 +31,7 @@ def test_work_item_ids_are_stable():
         (4, 2, 0.0, 1.0)]
 
 
+@pytest.mark.slow
 def test_run_writes_summary_and_results(tmp_path, capsys):
     doc = tiny_doc(slide_roll=(0.3,), k_lub=(0.0, 1e-11))
     doc["study"]["roughness_scale"] = [1.0, 0.5]
@@ -90,6 +91,7 @@ def test_a_warning_names_few_items_and_counts_many():
     assert item_list(list(range(20)), show=3) == "items 0, 1, 2, … and 17 more (20 items)"
 
 
+@pytest.mark.slow
 def test_bad_position_is_a_clear_error(tmp_path, capsys):
     scene = write_scene(tmp_path / "tiny.toml", tiny_doc())
     assert main(["run", str(scene), "--out", str(tmp_path / "o"), "--position", "7"]) == 2
@@ -134,6 +136,7 @@ def coarse_quick_scene(path, positions: str):
     return path
 
 
+@pytest.mark.slow
 def test_quick_scene_runs_and_the_flank_plot_reads_it(tmp_path):
     """scenes/quick.toml (coarsened) through `micropit run`, postprocess/plot_flank.py and
     postprocess/plot_life.py."""
@@ -163,6 +166,7 @@ def test_quick_scene_runs_and_the_flank_plot_reads_it(tmp_path):
     assert (out / "life.png").stat().st_size > 10_000     # A_p against cycles, damage maps
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("S", [2.0, -2.0])
 def test_pure_sliding_is_a_clear_error_for_the_life_run(tmp_path, capsys, S):
     """|S| = 2 leaves one surface at rest: it never completes a load cycle (it used to end in
@@ -173,6 +177,7 @@ def test_pure_sliding_is_a_clear_error_for_the_life_run(tmp_path, capsys, S):
     assert "slide.toml: disc.slide_roll = " in err and "|S| < 2" in err
 
 
+@pytest.mark.slow
 def test_positions_at_the_ends_of_the_path_of_contact_run(tmp_path):
     """Near-zero load at the very start and end of the path (p0 of a few MPa, with linear load
     sharing): the life run finishes with finite numbers, A_p in [0, 100], no damage < 0."""
@@ -189,6 +194,7 @@ def test_positions_at_the_ends_of_the_path_of_contact_run(tmp_path):
         assert 0.0 <= float(r["Ap_pct"]) <= 100.0 and float(r["max_damage"]) >= 0.0
 
 
+@pytest.mark.slow
 def test_a_failing_item_is_named_in_the_error(tmp_path, capsys):
     """A contact that cannot converge stops the run with the item, position, k_lub and
     block in the message, not only the solver's words."""
