@@ -36,6 +36,8 @@ def run_dir(tmp_path_factory):
     doc["life"] = {"cycles_M": 2.0, "block_M": 1.0, "max_splits": 1}
     doc["window"] = {"n": 16, "ny": 12, "steps": 3}
     doc["stress"] = {"layers": 3}
+    for body in ("body1", "body2"):       # wider than the window holds: window_problems
+        doc[body]["surface"]["corr_y_um"] = 300.0
     scene = write_scene(tmp / "tiny.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp / "out"), "--quiet"]) == 0
     return tmp / "out"
