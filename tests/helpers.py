@@ -21,7 +21,16 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENES = ROOT / "scenes"
+VALIDATION = ROOT / "validation"
 EPS = np.finfo(float).eps
+
+
+def read_table(name: str) -> list[dict[str, str]]:
+    """A validation table of the paper (validation/*.csv) as a list of rows."""
+    import csv
+
+    with open(VALIDATION / name, newline="") as fh:
+        return list(csv.DictReader(fh))
 
 # ---- scenes ------------------------------------------------------------------------------------
 

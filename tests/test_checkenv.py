@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from conftest import SCENES
+from helpers import SCENES
 
 from micropit_hpc import checkenv
 from micropit_hpc.checkenv import OK, PROBLEM, Check, format_report

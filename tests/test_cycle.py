@@ -8,8 +8,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import ROOT, SCENES
-from helpers import SMALL, gear_scene
+from helpers import ROOT, SCENES, SMALL, gear_scene
 
 from micropit_hpc import cycle as cycle_module
 from micropit_hpc.conditions import contact_study

@@ -19,8 +19,7 @@ import tomllib
 
 import numpy as np
 import pytest
-from conftest import SCENES
-from helpers import evaluate, tiny_doc, write_scene
+from helpers import SCENES, evaluate, tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.conditions import contact_study

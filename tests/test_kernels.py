@@ -12,9 +12,9 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import ROOT
 from helpers import (
     E_PRIME,
+    ROOT,
     assert_rounding_close,
     assert_sum_close,
     rough_gap,

@@ -11,8 +11,7 @@ import tomllib
 
 import numpy as np
 import pytest
-from conftest import SCENES
-from helpers import fake_result, tiny_doc, write_scene
+from helpers import SCENES, fake_result, tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.conditions import contact_study

@@ -8,7 +8,7 @@ import subprocess
 import sys
 
 import pytest
-from conftest import ROOT, SCENES
+from helpers import ROOT, SCENES
 
 from micropit_hpc.errors import SceneError
 from micropit_hpc.scene import load_scene
