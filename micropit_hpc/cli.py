@@ -190,7 +190,11 @@ def _run(args, comm, control, log, t0) -> int:
         status = _run_locked(args, comm, control, log, t0, plan, opts)
         code = EXIT_CHECKPOINTED if status == "stopped" else 0
         if lock is not None:        # rank 0: the verdict for a job script (outdir.EXIT_RECORD)
-            outdir.write_exit_record(out, code)
+            try:
+                outdir.write_exit_record(out, code)
+            except OSError as e:    # the run itself is complete: say so, do not fail it
+                log(f"warning: cannot write {out / outdir.EXIT_RECORD}: {e.strerror or e} "
+                    "(a job script then trusts the launcher's exit code)")
     finally:
         if lock is not None:
             lock.release()
