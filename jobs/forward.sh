@@ -22,9 +22,10 @@
 # Which exit code: the launcher's, except where it says less than the run did:
 # * the run's own code, written by rank 0 into OUT/.micropit.exit as it ends (0 or 85), when the
 #   launcher exits otherwise (mpirun exits 1 after its own SIGTERM, whatever the ranks did);
-# * 85 when a stop signal reached this shell (or killed the launcher) and the ranks were killed
-#   before the next block boundary: the last complete checkpoint stands, the block in progress
-#   is lost, and the requeued job continues from that checkpoint.
+# * 85 when a stop signal reached this shell, killed the launcher, or reached the ranks (rank 0
+#   writes "signal N" into OUT/.micropit.exit at once), and the ranks were killed before the
+#   next block boundary: the last complete checkpoint stands, the block in progress is lost,
+#   and the requeued job continues from that checkpoint.
 #
 # Why this shape: bash runs a trap only between commands or during `wait`, so the launcher runs
 # in the background. The signal goes to the launcher only: mpirun and srun both relay SIGUSR1 to
@@ -63,14 +64,16 @@ _forward() {
 }
 
 _settle_exit() {
-    local out=$1 own=""
+    local out=$1 own="" own_text=""
     case $rc in 0 | 2 | "$EXIT_CHECKPOINTED") return ;; esac
-    [[ -r "$out/.micropit.exit" ]] && own=$(tr -dc '0-9' < "$out/.micropit.exit")
+    [[ -r "$out/.micropit.exit" ]] && own_text=$(head -c 100 "$out/.micropit.exit")
+    [[ "$own_text" =~ ^[0-9]+$ ]] && own=$own_text
     if [[ "$own" == 0 || "$own" == "$EXIT_CHECKPOINTED" ]]; then
         log "the launcher exited $rc, the run itself $own ($out/.micropit.exit: the signal reached" \
             "the launcher too, as a time limit or scancel sends it); exit code $own"
         rc=$own
-    elif ((_forward_stop || rc > 128)) && [[ -s "$out/checkpoints/LATEST" ]]; then
+    elif { ((_forward_stop || rc > 128)) || [[ "$own_text" == signal* ]]; } \
+            && [[ -s "$out/checkpoints/LATEST" ]]; then
         log "stopped by a signal before the next block boundary (launcher exit $rc): the last" \
             "checkpoint, $out/checkpoints/$(cat "$out/checkpoints/LATEST"), stands (the block" \
             "in progress is lost); exit code $EXIT_CHECKPOINTED"

@@ -186,6 +186,10 @@ def _run(args, comm, control, log, t0) -> int:
                    ignore_memory=args.ignore_memory_estimate)
     plan = make_plan(scene, opts.positions)     # every check, on every rank alike
     lock = outdir.prepare(out, comm, restart=args.restart, overwrite=args.overwrite, log=log)
+    if lock is not None:    # rank 0 notes a stop signal on disk at once (outdir.EXIT_RECORD)
+        if control.signal_received:
+            outdir.write_exit_record(out, f"signal {control.signal_received}")
+        control.on_signal = lambda signum: outdir.write_exit_record(out, f"signal {signum}")
     try:
         status = _run_locked(args, comm, control, log, t0, plan, opts)
         code = EXIT_CHECKPOINTED if status == "stopped" else 0
@@ -196,6 +200,7 @@ def _run(args, comm, control, log, t0) -> int:
                 log(f"warning: cannot write {out / outdir.EXIT_RECORD}: {e.strerror or e} "
                     "(a job script then trusts the launcher's exit code)")
     finally:
+        control.on_signal = None
         if lock is not None:
             lock.release()
     options_left_warning(comm)

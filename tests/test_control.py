@@ -23,6 +23,18 @@ class FakeClock:
         return self.t
 
 
+def test_the_first_signal_is_passed_to_on_signal_once():
+    """The hook rank 0 uses to note a stop request on disk at once (a job script then knows the
+    run was asked to stop even if the ranks are killed before the next boundary)."""
+    seen = []
+    with StopControl(SerialComm()) as ctl:
+        ctl.on_signal = seen.append
+        os.kill(os.getpid(), signal.SIGUSR1)
+        os.kill(os.getpid(), signal.SIGTERM)
+        ctl.on_signal = lambda s: 1 / 0            # a failing hook is ignored
+    assert seen == [signal.SIGUSR1]
+
+
 @pytest.mark.parametrize("sig", [signal.SIGUSR1, signal.SIGTERM])
 def test_a_signal_is_reported_at_the_next_boundary(sig):
     with StopControl(SerialComm()) as ctl:

@@ -170,6 +170,8 @@ echo "rc=$rc"
     (1, "0", 0, True, 0),        # the run finished; mpirun was signalled at the end
     (1, None, 1, True, 85),      # ranks killed mid-block after a stop signal: last checkpoint
     (137, None, 0, True, 85),    # the launcher killed by a signal
+    (1, "signal 15", 0, True, 85),   # SIGTERM to mpirun only: rank 0 noted it, ranks killed
+    (1, "signal 15", 0, False, 1),   # ... before any checkpoint: a failure
     (1, None, 1, False, 1),      # no checkpoint yet: a failure
     (1, None, 0, True, 1),       # no signal: a failure (a bug), not a requeue
     (2, "85", 1, True, 2),       # a user error stays one

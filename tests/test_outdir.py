@@ -173,6 +173,36 @@ def test_an_obstruction_in_the_output_folder_is_refused_before_the_first_block(
 
 
 @pytest.mark.slow
+@pytest.mark.slow
+def test_the_exit_record_notes_a_signal_at_once_then_the_exit_code(finished, tmp_path,
+                                                                   monkeypatch):
+    """Rank 0 writes "signal N" into OUT/.micropit.exit as the signal arrives (mid-block), then
+    85 after the checkpoint; a finished run writes 0."""
+    import signal
+
+    from micropit_hpc import study
+
+    scene, _ = finished
+    written = []
+    real_write = outdir.write_exit_record
+    monkeypatch.setattr(outdir, "write_exit_record",
+                        lambda out, code: written.append(code) or real_write(out, code))
+    real_block = study.ItemRun.run_block
+
+    def block_with_a_signal(self, *a, **k):
+        if not written:
+            os.kill(os.getpid(), signal.SIGUSR1)
+        return real_block(self, *a, **k)
+    monkeypatch.setattr(study.ItemRun, "run_block", block_with_a_signal)
+    out = tmp_path / "out"
+    assert run(scene, out) == 85
+    assert written == [f"signal {int(signal.SIGUSR1)}", 85]
+    assert (out / outdir.EXIT_RECORD).read_text() == "85\n"
+    monkeypatch.setattr(study.ItemRun, "run_block", real_block)
+    assert run(scene, out, "--restart") == 0
+    assert (out / outdir.EXIT_RECORD).read_text() == "0\n"
+
+
 def test_quiet_silences_the_progress_only(finished, tmp_path, capsys):
     """--quiet used to hide the checkpoint fallback too: "every checkpoint damaged, start
     afresh" happened without a word."""

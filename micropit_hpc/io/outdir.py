@@ -41,8 +41,10 @@ from micropit_hpc.parallel.share import raise_agreed
 
 LOCK = ".micropit.lock"
 #: The run's own exit code, written by rank 0 as the run ends (0: finished, 85: checkpointed
-#: and stopped) and removed when the next run starts: a job script reads it when the launcher's
-#: exit code says less (mpirun exits 1 after a SIGTERM to the whole job, whatever the ranks did).
+#: and stopped; before that ``signal N`` when a stop signal arrived) and removed when the next
+#: run starts: a job script reads it when the launcher's exit code says less (mpirun exits 1
+#: after a SIGTERM to the whole job, whatever the ranks did, and kills ranks that have not
+#: reached the next block boundary in time).
 EXIT_RECORD = ".micropit.exit"
 MANIFEST = "manifest.json"
 STAGING = ".publish"
@@ -270,11 +272,14 @@ def check_obstructions(out: Path) -> None:
         raise MicropitError(f"--out {out}: " + "; ".join(found))
 
 
-def write_exit_record(out: Path, code: int) -> None:
-    """Record the run's exit code in ``out`` (rank 0, after the results or the checkpoint)."""
+def write_exit_record(out: Path, code: int | str) -> None:
+    """Record the run's exit code in ``out`` (rank 0, after the results or the checkpoint), or
+    ``signal N`` when a stop signal arrives (the run may still be killed before its next
+    checkpoint: the last one then stands)."""
     from micropit_hpc.io.atomic import write_text_atomic
 
-    write_text_atomic(Path(out) / EXIT_RECORD, f"{int(code)}\n")
+    text = f"{int(code)}" if isinstance(code, int) else str(code)
+    write_text_atomic(Path(out) / EXIT_RECORD, text + "\n")
 
 
 def run_leftovers(out: Path) -> list[str]:
