@@ -13,8 +13,11 @@
 #   RUN_ARGS="..."     more `micropit run` arguments (--ranks-per-item 2, --max-wall 1:00:00,
 #                      -log_view, ...)
 #   MICROPIT_PYTHON    the interpreter (default .venv/bin/python from scripts/setup.sh)
-# Exit code 85: the run stopped at a block boundary (Ctrl-C is not caught; SIGUSR1/SIGTERM or
-# OUT_DIR/STOP are) after writing a checkpoint; run again with RESTART=1 to continue.
+#   KILL_GRACE_S=S     seconds mpirun leaves the ranks to reach a block boundary when it is
+#                      signalled itself (default 30; jobs/forward.sh)
+# Exit code 85: the run stopped at a block boundary after writing a checkpoint (SIGUSR1 or
+# SIGTERM to this script, to mpirun or to the whole process group, or OUT_DIR/STOP); run again
+# with RESTART=1 to continue.
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
@@ -39,13 +42,17 @@ fi
 # shellcheck disable=SC2206  # RUN_ARGS is split on purpose
 [[ -z "${RUN_ARGS:-}" ]] || args+=(${RUN_ARGS})
 echo "== micropit ${args[*]} on $np ranks"
-status=0
-mpirun -n "$np" "$py" -m micropit_hpc "${args[@]}" || status=$?
-if ((status == 85)); then
+# SIGTERM/SIGUSR1 to this script reach the ranks as SIGUSR1 through mpirun (jobs/forward.sh);
+# either, or the same signal to the whole process group, ends in a checkpoint and exit 85.
+EXIT_CHECKPOINTED=85  # micropit_hpc.parallel.control.EXIT_CHECKPOINTED
+log() { echo "== $*"; }
+source jobs/forward.sh
+run_forwarding "" "$out" mpirun -n "$np" "$py" -m micropit_hpc "${args[@]}"
+if ((rc == EXIT_CHECKPOINTED)); then
     echo "== stopped with a checkpoint (exit 85): RESTART=1 bash jobs/local.sh $scene continues"
-    exit 85
-elif ((status)); then
-    exit "$status"
+    exit "$EXIT_CHECKPOINTED"
+elif ((rc)); then
+    exit "$rc"
 fi
 echo "== plots"
 if "$py" - "$out" <<'PY'

@@ -115,7 +115,7 @@ log "budget for the run: $max_wall s"
 # A signal (qsig -s USR1, or SIGTERM at the limit) is forwarded to the launcher, which relays it
 # to every rank (jobs/forward.sh).
 source jobs/forward.sh
-run_forwarding "" mpirun -n "$np" "$py" -m micropit_hpc "${args[@]}"
+run_forwarding "" "$out" mpirun -n "$np" "$py" -m micropit_hpc "${args[@]}"
 
 # ---- 4. resubmit on "checkpointed, not finished" ----------------------------------------------------
 case $rc in

@@ -22,8 +22,10 @@
 #      (1.2 × the longest block so far plus a checkpoint, measured) would overrun it, write a
 #      checkpoint and exit with code 85. As a backstop, 600 s before the time limit Slurm sends
 #      SIGUSR1 to this batch shell (--signal=B:USR1@600); the trap below (jobs/forward.sh)
-#      delivers it, and any SIGTERM (scancel, the limit), to the ranks as SIGUSR1 through the
-#      launcher's relay: at the next block boundary they checkpoint and exit 85.
+#      delivers it, and any SIGTERM, to the ranks as SIGUSR1 through the launcher's relay: at
+#      the next block boundary they checkpoint and exit 85. A SIGTERM to every process of the
+#      job (the limit, scancel) reaches the ranks directly and ends the same way; the exit code
+#      is then the run's own (OUT/.micropit.exit), not mpirun's 1 (jobs/forward.sh).
 #   4. On exit code 85 this script requeues the task (`scontrol requeue`): the same task starts
 #      again later, with the same arguments, and step 2 resumes from the checkpoint.
 #      Any other exit code ends the task (0: finished; anything else: an error, see the log).
@@ -45,6 +47,8 @@
 #   MICROPIT_PYTHON=PATH    the interpreter (default .venv/bin/python from scripts/setup.sh)
 #   MICROPIT_ROOT=DIR       the repository (default: the directory sbatch was run in)
 #   RUN_ARGS="..."          extra arguments for `micropit run`
+#   KILL_GRACE_S=S          seconds mpirun leaves the ranks to reach a block boundary after it
+#                           is signalled itself, before it signals them (default 30)
 # =================================================================================================
 #SBATCH --job-name=micropit
 #SBATCH --ntasks=4
@@ -133,7 +137,7 @@ fi
 
 # ---- 3. forward Slurm's early warning (SIGUSR1) and SIGTERM (scancel, the limit) to the launcher --
 source jobs/forward.sh
-run_forwarding "time limit near" "${launch[@]}" "$py" -m micropit_hpc "${args[@]}"
+run_forwarding "time limit near" "$out" "${launch[@]}" "$py" -m micropit_hpc "${args[@]}"
 
 # ---- 4. requeue on "checkpointed, not finished" -----------------------------------------------------
 case $rc in

@@ -106,8 +106,8 @@ def _cmd_run(args: argparse.Namespace) -> int:
     rank0 = comm.rank == 0
     t0 = time.perf_counter()
 
-    def log(msg: str) -> None:    # --quiet keeps the warnings only
-        if rank0 and not (args.quiet and not msg.startswith("warning")):
+    def log(msg: str) -> None:    # every note; --quiet silences the progress lines only
+        if rank0:
             say(f"# {msg}")
 
     # From here on SIGUSR1/SIGTERM are noted, never fatal, until the results are written; a
@@ -186,13 +186,25 @@ def _run(args, comm, control, log, t0) -> int:
                    ignore_memory=args.ignore_memory_estimate)
     plan = make_plan(scene, opts.positions)     # every check, on every rank alike
     lock = outdir.prepare(out, comm, restart=args.restart, overwrite=args.overwrite, log=log)
+    if lock is not None:    # rank 0 notes a stop signal on disk at once (outdir.EXIT_RECORD)
+        if control.signal_received:
+            outdir.write_exit_record(out, f"signal {control.signal_received}")
+        control.on_signal = lambda signum: outdir.write_exit_record(out, f"signal {signum}")
     try:
         status = _run_locked(args, comm, control, log, t0, plan, opts)
+        code = EXIT_CHECKPOINTED if status == "stopped" else 0
+        if lock is not None:        # rank 0: the verdict for a job script (outdir.EXIT_RECORD)
+            try:
+                outdir.write_exit_record(out, code)
+            except OSError as e:    # the run itself is complete: say so, do not fail it
+                log(f"warning: cannot write {out / outdir.EXIT_RECORD}: {e.strerror or e} "
+                    "(a job script then trusts the launcher's exit code)")
     finally:
+        control.on_signal = None
         if lock is not None:
             lock.release()
     options_left_warning(comm)
-    return EXIT_CHECKPOINTED if status == "stopped" else 0
+    return code
 
 
 def _run_locked(args, comm, control, log, t0, plan, opts) -> str:
@@ -206,7 +218,7 @@ def _run_locked(args, comm, control, log, t0, plan, opts) -> str:
     scene, n_blocks = plan.scene, plan.blocks
     last = plan.block_cycles(n_blocks)
     shorter = (f", the last of {last / 1e6:g} M" if last != scene.life.block else "")
-    for w in scene.warnings:
+    for w in (*scene.warnings, *plan.warnings):
         log(f"warning: {w}")
     if scene.lubricant.derived:
         log(scene.lubricant.derived)
@@ -235,7 +247,12 @@ def _out_dir(text: str) -> str:
 
 
 def _wall_time(text: str) -> float:
-    """Seconds from ``S``, ``M:S``, ``H:M:S`` or ``D-H:M:S`` (Slurm's forms)."""
+    """Seconds from ``S``, ``M:S``, ``H:M:S`` or ``D-H:M:S`` (Slurm's forms); errors quote the
+    value as given."""
+    given = text
+    if text.strip().startswith("-"):
+        raise argparse.ArgumentTypeError(f"the wall-time budget must be a positive, finite "
+                                         f"time, got {given!r}")
     try:
         days = 0
         if "-" in text:
@@ -250,10 +267,10 @@ def _wall_time(text: str) -> float:
         secs += 86400.0 * days
     except ValueError:
         raise argparse.ArgumentTypeError(
-            f"expected seconds or [D-]H:M:S, got {text!r}") from None
+            f"expected seconds or [D-]H:M:S, got {given!r}") from None
     if not math.isfinite(secs) or secs <= 0:
         raise argparse.ArgumentTypeError(f"the wall-time budget must be a positive, finite "
-                                         f"time, got {text!r}")
+                                         f"time, got {given!r}")
     return secs
 
 
@@ -287,6 +304,8 @@ def _cmd_scene(args: argparse.Namespace) -> int:
         if scene.lubricant.derived:
             print(f"  {scene.lubricant.derived}")
         _warn_scene(scene)
+        for w in plan.warnings:
+            print(f"micropit: warning: {w}", file=sys.stderr, flush=True)
         for p in plan.window_problems:
             print(f"micropit: warning: {scene.source}: the window does not hold the roughness: "
                   f"{p}", file=sys.stderr, flush=True)
@@ -391,7 +410,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="run even when the up-front memory estimate (printed) exceeds the "
                         "memory available on this node")
     p.add_argument("--quiet", action="store_true",
-                   help="no progress lines or notes on stderr (warnings and errors only)")
+                   help="no progress lines on stderr (notes, warnings, checkpoint fallbacks "
+                        "and errors are still written)")
     p.add_argument("--stop-file", default=None, metavar="FILE",
                    help="stop at the next block boundary once FILE exists (checkpoint, "
                         "exit 85)")

@@ -217,7 +217,8 @@ class Plan:
     """A checked study, before anything is solved: the scene, its contact conditions
     (``study``), the shared :class:`Window`, the work items, the contact level of every
     position, the blocks of the life, the ISO/TS 6336-22 Method B baseline (``method_b``) and
-    why the window does not hold the synthetic roughness (``window_problems``, warnings)."""
+    why the window does not hold the synthetic roughness (``window_problems``, warnings) and
+    other plausibility warnings (``warnings``)."""
 
     scene: Scene
     study: ContactStudy
@@ -227,6 +228,9 @@ class Plan:
     blocks: int
     method_b: object
     window_problems: tuple[str, ...]
+    #: values in range that cannot be meant (a p0 no steel carries, a correlation length
+    #: smaller than a grid cell): :func:`plausibility_warnings`
+    warnings: tuple[str, ...] = ()
 
     def conditions(self, position: int) -> ContactConditions:
         """The contact conditions of ``position`` (1-based)."""
@@ -264,4 +268,46 @@ def make_plan(scene: Scene, positions: Sequence[int] | None = None, *,
     check_surfaces(scene, window.grid)
     return Plan(scene=scene, study=study, window=window, items=items, levels=levels,
                 blocks=blocks, method_b=method_b(study),
-                window_problems=tuple(window_problems(scene, window.grid)))
+                window_problems=tuple(window_problems(scene, window.grid)),
+                warnings=tuple(plausibility_warnings(scene, study, window.grid)))
+
+
+#: The largest Hertz pressure any steel carries [Pa]: the hardness of the hardest bearing and
+#: case-hardened steels (HV 800 ≈ 7.8 GPa); real gear and bearing contacts run at 0.5–3 GPa.
+P0_STEEL_MAX = 8e9
+
+
+def plausibility_warnings(scene: Scene, study: ContactStudy, grid) -> list[str]:
+    """Warnings for a scene whose values are allowed but cannot be meant, once the contact and
+    the window are known: a Hertz pressure no steel carries (a torque in N·mm, a facewidth in
+    m), and in-plane lengths of a synthetic surface shorter than a grid cell (the grid does not
+    resolve them; often a value in metres)."""
+    out = []
+    src = scene.source
+    p0s = [c.p0 for c in study.conditions]
+    if p0s and max(p0s) > P0_STEEL_MAX:
+        k = max(range(len(p0s)), key=p0s.__getitem__)
+        if scene.gear is not None:
+            keys = (f"gear.torque_Nm = {scene.gear.torque:g} (N·m) and gear.facewidth_mm = "
+                    f"{scene.document.get('gear', {}).get('facewidth_mm', '?')}")
+        else:
+            keys = "the [disc] load"
+        out.append(f"{src}: p0 = {p0s[k] / 1e9:.3g} GPa at position {k + 1} is above what "
+                   f"any steel carries (about {P0_STEEL_MAX / 1e9:g} GPa, the hardness of the "
+                   f"hardest steels; gears run at 0.5 to 3 GPa): check {keys}")
+    cell = {"x": grid.lx / grid.nx, "y": grid.ly / grid.ny}
+    for i, body in ((1, scene.body1), (2, scene.body2)):
+        s = body.surface
+        if body.Rq == 0.0:
+            continue
+        lengths = []
+        if s.kind == "gaussian":
+            lengths = [("corr_x_um", s.corr_x, "x"), ("corr_y_um", s.corr_y, "y")]
+        elif s.kind == "self_affine" and s.short_cutoff is not None:
+            lengths = [("short_cutoff_um", s.short_cutoff, "x")]
+        for key, value, axis in lengths:
+            if math.isfinite(value) and value < cell[axis]:
+                out.append(f"{src}: body{i}.surface.{key} = {value * 1e6:.3g} µm is shorter "
+                           f"than one grid cell along {axis} ({cell[axis] * 1e6:.3g} µm): the "
+                           f"grid cannot resolve it (raise window.n, or check the unit)")
+    return out

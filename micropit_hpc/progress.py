@@ -2,7 +2,9 @@
 
 Rank 0 only, by construction: the caller creates a :class:`Progress` on rank 0 and a
 :class:`NullProgress` (same API, does nothing) elsewhere. The estimate of the time left is the
-mean time per unit done so far in this run times the units left.
+mean time per unit done so far in this run times the units left, shown once this run has done
+a whole unit (or half the total, when that is less): before, the time is dominated by the
+start-up (planning the FFTs, compiling the kernels) and the estimate means nothing.
 """
 
 from __future__ import annotations
@@ -58,11 +60,11 @@ class Progress:
         self._open_line = False
 
     def eta(self, done: float, now: float | None = None) -> float:
-        """Seconds left at ``done`` units: mean time per unit so far × units left (NaN before
-        the first unit of this run)."""
+        """Seconds left at ``done`` units: mean time per unit so far × units left (NaN until
+        this run has done one whole unit, or half the units when there are fewer than 2)."""
         now = self.clock() if now is None else now
         run = done - self.initial
-        if run <= 0:
+        if run <= 0 or run < min(1.0, 0.5 * (self.total - self.initial)):
             return math.nan
         return (now - self.t0) / run * max(0, self.total - done)
 

@@ -21,6 +21,8 @@ input raises :class:`SceneError` naming the file, the key, the value and what is
 from __future__ import annotations
 
 import math
+import re
+import stat
 import tomllib
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -238,8 +240,10 @@ class SurfaceSpec:
         lo_open=True)
     corr_y: float = setting(
         "corr_y_um", "float", "Correlation length β_y across rolling. Ground gears "
-        "and discs have their lay across the rolling direction: β_y ≫ β_x.", "µm", UM,
-        default=300.0, lo=0, hi=1e9, lo_open=True)
+        "and discs have their lay across the rolling direction: β_y > β_x. The default, 3 × "
+        "the default β_x, fits the default window (2 b_ref; it must span 2 β_y, so windows "
+        "from 180 µm); a longer β_y (ground flanks reach 300 µm) needs a wider "
+        "window.length_y_um.", "µm", UM, default=90.0, lo=0, hi=1e9, lo_open=True)
     acf: str = setting(
         "acf", "str", "Autocorrelation function of a `gaussian` surface.",
         default="exponential", choices=("exponential", "gaussian"))
@@ -824,20 +828,67 @@ def load_scene(path: str | Path) -> Scene:
     """Read and validate a scene file; raise :class:`SceneError` on any problem."""
     source = str(path)
     try:
+        mode = Path(path).stat().st_mode
+    except FileNotFoundError:
+        raise SceneError(source, "no such scene file") from None
+    except OSError as e:
+        raise SceneError(source, f"cannot be read: {e.strerror}") from None
+    if stat.S_ISDIR(mode):
+        raise SceneError(source, "is a directory, not a scene file")
+    if not stat.S_ISREG(mode):      # a FIFO or a device would block the read, or never end
+        raise SceneError(source, f"is not a regular file (a {_file_kind(mode)}), not a scene "
+                                 "file")
+    try:
         data = Path(path).read_bytes()
     except FileNotFoundError:
         raise SceneError(source, "no such scene file") from None
-    except IsADirectoryError:
-        raise SceneError(source, "is a directory, not a scene file") from None
     except OSError as e:
         raise SceneError(source, f"cannot be read: {e.strerror}") from None
     try:
-        doc = tomllib.loads(data.decode("utf-8"))
+        text = data.decode("utf-8")
+        doc = tomllib.loads(text)
     except UnicodeDecodeError:
         raise SceneError(source, "is not UTF-8 text (a TOML scene file was expected)") from None
     except tomllib.TOMLDecodeError as e:
-        raise SceneError(source, f"not valid TOML: {e}") from None
+        raise SceneError(source, _toml_problem(text, e)) from None
     return scene_from_dict(doc, source=source)
+
+
+def _file_kind(mode: int) -> str:
+    for test, name in ((stat.S_ISFIFO, "named pipe"), (stat.S_ISCHR, "character device"),
+                       (stat.S_ISBLK, "block device"), (stat.S_ISSOCK, "socket")):
+        if test(mode):
+            return name
+    return "special file"
+
+
+def _toml_problem(text: str, e: Exception) -> str:
+    """The TOML parser's complaint, with the key or table named when a key or a table is given
+    twice (tomllib says only "Cannot overwrite a value (at line 3, column 9)")."""
+    msg = str(e)
+    m = re.search(r"\(at line (\d+), column \d+\)", msg)
+    if m is None:
+        return f"not valid TOML: {msg}"
+    line_no = int(m.group(1))
+    lines = text.splitlines()
+    line = lines[line_no - 1] if 0 < line_no <= len(lines) else ""
+    table = ""
+    for earlier in reversed(lines[:line_no - 1]):
+        head = re.match(r"\s*\[+\s*([^\]]+?)\s*\]+", earlier)
+        if head:
+            table = head.group(1).replace('"', "").replace(" ", "")
+            break
+    if msg.startswith("Cannot overwrite a value") and "=" in line:
+        key = line.split("=", 1)[0].strip().strip('"')
+        dotted = f"{table}.{key}" if table else key
+        return (f"key '{dotted}' is given twice (again at line {line_no}): give each key "
+                f"once")
+    if msg.startswith("Cannot declare"):
+        head = re.match(r"\s*\[+\s*([^\]]+?)\s*\]+", line)
+        name = head.group(1).replace('"', "").replace(" ", "") if head else line.strip()
+        return (f"table [{name}] is given twice (again at line {line_no}): put its keys in "
+                f"one table")
+    return f"not valid TOML: {msg}"
 
 
 def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
@@ -896,6 +947,13 @@ def _read_body(table: Mapping[str, Any], section: Section, surface: Section,
                source: str) -> Body:
     values = read_section(table, section, source)
     spec: SurfaceSpec = surface.read(table.get("surface"), source)
+    for attr, key in (("file", "file"), ("dataset", "dataset")):
+        if spec.kind != "file" and getattr(spec, attr) is not None:
+            raise SceneError(source, f"a measured map is read only with kind = \"file\", and "
+                                     f"this body's kind is \"{spec.kind}\": set "
+                                     f"{surface.path}.kind = \"file\" to use the map, or "
+                                     f"remove the key", key=f"{surface.path}.{key}",
+                             value=getattr(spec, attr))
     if spec.kind == "file":
         if spec.file is None:
             raise SceneError(source, f"missing key '{surface.path}.file': kind = \"file\" reads "
@@ -933,6 +991,14 @@ _PLAUSIBLE = (
     ("body2.E_GPa", lambda v: v < 1.0, "a value in TPa"),
     ("body1.hardness_GPa", lambda v: v > 30, "a Vickers number HV (HV 700 ≈ 6.9 GPa)"),
     ("body2.hardness_GPa", lambda v: v > 30, "a Vickers number HV (HV 700 ≈ 6.9 GPa)"),
+    ("body1.surface.corr_x_um", lambda v: v < 0.01, "a value in metres or mm (ground "
+     "flanks have 5 to 100 µm)"),
+    ("body1.surface.corr_y_um", lambda v: v < 0.01, "a value in metres or mm"),
+    ("body2.surface.corr_x_um", lambda v: v < 0.01, "a value in metres or mm (ground "
+     "flanks have 5 to 100 µm)"),
+    ("body2.surface.corr_y_um", lambda v: v < 0.01, "a value in metres or mm"),
+    ("window.length_x_um", lambda v: v < 1.0, "a value in metres or mm"),
+    ("window.length_y_um", lambda v: v < 1.0, "a value in metres or mm"),
     ("gear.module_mm", lambda v: v < 0.1, "a value in metres"),
     ("gear.facewidth_mm", lambda v: v < 0.1, "a value in metres"),
     ("film.hc_um", lambda v: v < 1e-3, "a value in metres or mm"),

@@ -1,4 +1,5 @@
-"""Shared test fixtures, and the guard that turns a rank-local failure into a prompt abort.
+"""Shared test fixtures (the shared helpers are in tests/helpers.py), and the guard that turns
+a rank-local failure into a prompt abort.
 
 Under ``mpirun -n 2 ... --with-mpi``, a failing assertion on one rank while the other waits in a
 collective call would hang the run; the hook below prints the failure and aborts every rank.
@@ -6,22 +7,12 @@ collective call would hang the run; the hook below prints the failure and aborts
 
 from __future__ import annotations
 
-import csv
 import os
 import sys
 from pathlib import Path
 
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
-SCENES = ROOT / "scenes"
-VALIDATION = ROOT / "validation"
-
-
-def read_table(name: str) -> list[dict[str, str]]:
-    """A validation table of the paper (validation/*.csv) as a list of rows."""
-    with open(VALIDATION / name, newline="") as fh:
-        return list(csv.DictReader(fh))
+from helpers import SCENES
 
 
 @pytest.fixture

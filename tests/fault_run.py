@@ -5,6 +5,7 @@ beyond the checkpoint writer's ``_at_stage``.
 WHERE:
 * ``restart``: rank RANK fails right after reading its state from the checkpoint;
 * ``checkpoint``: rank RANK fails inside the collective checkpoint write (after its data);
+* ``killckpt``: rank RANK is SIGKILLed inside the second checkpoint write (after its data);
 * ``results``: rank RANK fails while the results are written (rank 0 writes them);
 * ``internal``: rank RANK raises a KeyError (a bug) in the middle of block 1;
 * ``collective``: rank RANK alone raises an error marked collective (a wrong marking: the
@@ -42,6 +43,17 @@ def main() -> int:
             if stage == "data":
                 raise MicropitError(f"injected fault: rank {me} failed writing {path}")
         ck._at_stage = bad_stage
+    elif me == rank and where == "killckpt":
+        import os
+        import signal
+        writes = []
+
+        def die(stage, path):
+            if stage == "data":
+                writes.append(path)
+                if len(writes) == 2:
+                    os.kill(os.getpid(), signal.SIGKILL)
+        ck._at_stage = die
     elif me == rank and where == "results":
         def bad_results(path, *a, **k):
             raise MicropitError(f"injected fault: cannot write {path}")

@@ -8,8 +8,7 @@ import csv
 import h5py
 import numpy as np
 import pytest
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.errors import SceneError
@@ -53,16 +52,17 @@ def test_a_life_of_too_many_blocks_is_refused_in_one_line():
 def test_micropit_scene_refuses_it_too(tmp_path, capsys):
     doc = tiny_doc()
     doc["life"].update(cycles_M=1e6, block_M=1e-6)
-    path = _write_scene(tmp_path / "many.toml", doc)
+    path = write_scene(tmp_path / "many.toml", doc)
     assert main(["scene", str(path)]) == 2
     assert "life.block_M = 1e-06" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_run_with_a_non_dividing_block_ends_at_exactly_the_life(tmp_path, capsys):
     doc = tiny_doc(slide_roll=(0.3,))
     doc["life"].update(cycles_M=1.5, block_M=1.0)
-    path = _write_scene(tmp_path / "t.toml", doc)
+    path = write_scene(tmp_path / "t.toml", doc)
     out = tmp_path / "out"
     assert main(["run", str(path), "--out", str(out)]) == 0
     err = capsys.readouterr().err

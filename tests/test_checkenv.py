@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from conftest import SCENES
+from helpers import SCENES
 
 from micropit_hpc import checkenv
 from micropit_hpc.checkenv import OK, PROBLEM, Check, format_report
@@ -50,6 +50,7 @@ def test_serial_environment_passes_and_a_wrong_rank_count_fails(capsys, monkeypa
     assert "ranks (rank 0): 1 rank, expected 3" in capsys.readouterr().out
 
 
+@pytest.mark.slow
 @pytest.mark.mpi(min_size=2)
 def test_parallel_environment_under_mpirun(capsys):
     from mpi4py import MPI
@@ -62,6 +63,7 @@ def test_parallel_environment_under_mpirun(capsys):
     assert checkenv.main(expect_ranks=comm.size + 1) == 1
 
 
+@pytest.mark.slow
 @pytest.mark.mpi(min_size=2)
 def test_contact_writes_once_under_mpirun(tmp_path_factory, capsys, monkeypatch):
     from mpi4py import MPI

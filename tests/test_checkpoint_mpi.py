@@ -157,6 +157,7 @@ print("not killed", flush=True)
 """
 
 
+@pytest.mark.slow
 @pytest.mark.mpi(min_size=2)
 @pytest.mark.timeout(120)
 @pytest.mark.parametrize("stage", ["data", "closed"])

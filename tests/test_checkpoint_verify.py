@@ -11,9 +11,7 @@ import shutil
 import h5py
 import numpy as np
 import pytest
-from test_life import tiny_doc
-from test_restart import results_differ
-from test_run import _write_scene
+from helpers import results_differ, tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.io.checkpoint import CheckpointError, find_latest, verify_checkpoint
@@ -28,7 +26,7 @@ def doc_of():
 @pytest.fixture(scope="module")
 def straight(tmp_path_factory):
     d = tmp_path_factory.mktemp("verify")
-    scene = _write_scene(d / "tiny.toml", doc_of())
+    scene = write_scene(d / "tiny.toml", doc_of())
     assert main(["run", str(scene), "--out", str(d / "out")]) == 0
     names = sorted(p.name for p in (d / "out" / "checkpoints").iterdir())
     assert names == ["LATEST", "ckpt_000001.h5", "ckpt_000002.h5", "ckpt_000003.h5"]
@@ -59,6 +57,7 @@ def restart(scene, out, capsys):
     return rc, capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_every_dataset_carries_a_checksum(straight):
     _, ref = straight
     with h5py.File(ref / "checkpoints" / "ckpt_000003.h5", "r") as f:
@@ -69,6 +68,7 @@ def test_every_dataset_carries_a_checksum(straight):
         assert len(f.attrs["run_id"]) == 32
 
 
+@pytest.mark.slow
 def test_flipped_bytes_inside_the_damage_fall_back_to_the_previous_checkpoint(
         straight, tmp_path, capsys):
     scene, ref = straight
@@ -83,6 +83,7 @@ def test_flipped_bytes_inside_the_damage_fall_back_to_the_previous_checkpoint(
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("dataset", ["body1/damage", "state", "records", "body2/heights"])
 def test_a_missing_dataset_falls_back(straight, tmp_path, capsys, dataset):
     scene, ref = straight
@@ -97,6 +98,7 @@ def test_a_missing_dataset_falls_back(straight, tmp_path, capsys, dataset):
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_nan_heights_and_a_missing_attribute_fall_back_twice(straight, tmp_path, capsys):
     scene, ref = straight
     out = copy_of(ref, tmp_path)
@@ -114,6 +116,7 @@ def test_nan_heights_and_a_missing_attribute_fall_back_twice(straight, tmp_path,
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_a_newer_leftover_of_another_run_is_not_used(straight, tmp_path, capsys):
     """LATEST names block 2; a block-3 file of another run (other run_id) is a leftover."""
     scene, ref = straight
@@ -128,6 +131,7 @@ def test_a_newer_leftover_of_another_run_is_not_used(straight, tmp_path, capsys)
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_a_newer_checkpoint_of_the_same_run_is_used(straight, tmp_path):
     """A crash between the rename of block 3 and the update of LATEST loses nothing."""
     _, ref = straight
@@ -136,6 +140,7 @@ def test_a_newer_checkpoint_of_the_same_run_is_used(straight, tmp_path):
     assert find_latest(out / "checkpoints") == out / "checkpoints" / "ckpt_000003.h5"
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_replaced_measured_surface_is_refused_unless_forced(tmp_path, capsys):
     doc = doc_of()
@@ -143,7 +148,7 @@ def test_a_replaced_measured_surface_is_refused_unless_forced(tmp_path, capsys):
     np.save(tmp_path / "flank.npy", rng.normal(0, 0.16e-6, (32, 32)))
     doc["body1"]["surface"] = {"kind": "file", "file": "flank.npy",
                                "spacing_um": [6.25, 6.25], "rescale": True}
-    scene = _write_scene(tmp_path / "measured.toml", doc)
+    scene = write_scene(tmp_path / "measured.toml", doc)
     out = tmp_path / "out"
     stop = tmp_path / "STOP"
     stop.touch()

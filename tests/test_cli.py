@@ -9,7 +9,7 @@ import sys
 from pathlib import Path
 
 import pytest
-from conftest import ROOT, SCENES
+from helpers import ROOT, SCENES
 
 from micropit_hpc.cli import main
 from micropit_hpc.report import CONTACT_COLUMNS

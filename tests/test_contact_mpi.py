@@ -15,7 +15,7 @@ from dataclasses import replace
 
 import numpy as np
 import pytest
-from test_life import tiny_doc
+from helpers import tiny_doc
 
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle, contact_split_min_cells
@@ -60,7 +60,9 @@ def _compare_dry(g, gap0, P, p_lim=math.inf, p_init=None, report=""):
     worst = max(rel(p, serial.pressure), rel(gap, serial.gap),
                 abs(dist.approach - serial.approach) / abs(serial.approach))
     ok = (dist.pressure.shape == (slab.nx_local, g.ny) and worst <= RTOL
-          and abs(dist.iterations - serial.iterations) <= 1
+          # both converged; the count may move where round-off moves the error across tol
+          and dist.error <= TOL and abs(dist.iterations - serial.iterations)
+          <= 1 + serial.iterations // 10
           # the scalars are the same on every rank
           and len(set(comm.allgather((dist.approach, dist.iterations, dist.error)))) == 1)
     if comm.rank == 0:
@@ -172,7 +174,7 @@ def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model, monkeyp
             worst = max(worst, rel(b.pressure, a.pressure), rel(b.clearance, a.clearance),
                         abs(b.phi - a.phi))
             ok = ok and np.array_equal(b.solid, a.solid)
-            ok = ok and abs(b.iterations - a.iterations) <= slack
+            ok = ok and abs(b.iterations - a.iterations) <= slack + a.iterations // 10
             iters.append((a.iterations, b.iterations))
             # the whole-window fields are the same on every rank, bit for bit
             mine = (b.pressure, b.clearance, b.traction1)

@@ -12,7 +12,7 @@ from pathlib import Path
 import pytest
 
 from micropit_hpc.parallel import SerialComm
-from micropit_hpc.parallel.control import EXIT_CHECKPOINTED, StopControl
+from micropit_hpc.parallel.control import StopControl
 
 
 class FakeClock:
@@ -23,11 +23,16 @@ class FakeClock:
         return self.t
 
 
-def test_exit_code_is_the_one_the_job_scripts_requeue_on():
-    assert EXIT_CHECKPOINTED == 85
-    root = Path(__file__).resolve().parents[1]
-    for script in ("jobs/slurm_array.sh", "jobs/pbs.sh"):
-        assert "85" in (root / script).read_text()
+def test_the_first_signal_is_passed_to_on_signal_once():
+    """The hook rank 0 uses to note a stop request on disk at once (a job script then knows the
+    run was asked to stop even if the ranks are killed before the next boundary)."""
+    seen = []
+    with StopControl(SerialComm()) as ctl:
+        ctl.on_signal = seen.append
+        os.kill(os.getpid(), signal.SIGUSR1)
+        os.kill(os.getpid(), signal.SIGTERM)
+        ctl.on_signal = lambda s: 1 / 0            # a failing hook is ignored
+    assert seen == [signal.SIGUSR1]
 
 
 @pytest.mark.parametrize("sig", [signal.SIGUSR1, signal.SIGTERM])

@@ -8,7 +8,7 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import ROOT, SCENES
+from helpers import ROOT, SCENES, SMALL, gear_scene
 
 from micropit_hpc import cycle as cycle_module
 from micropit_hpc.conditions import contact_study
@@ -21,28 +21,11 @@ from micropit_hpc.mechanics.hertz_field import line_contact_stress
 from micropit_hpc.plan import reference_half_width
 from micropit_hpc.scene import load_scene
 
-SMALL = """
-[window]
-n = 32
-steps = 4
-[stress]
-layers = 4
-"""
-
-
-def _scene(tmp_path, base="gear_z23", extra=SMALL, drop=(), name="small"):
-    text = (SCENES / f"{base}.toml").read_text()
-    for line in drop:
-        text = text.replace(line, "")
-    path = tmp_path / f"{base}_{name}.toml"
-    path.write_text(text + extra)
-    return path
-
 
 def test_window_kinematics(tmp_path):
     """t_j = (j+½)t_f/m, x_c from −b to +b, relative slip over the transit 2b|S|
     (docs/model.md §4)."""
-    study = contact_study(load_scene(_scene(tmp_path)))
+    study = contact_study(load_scene(gear_scene(tmp_path)))
     cyc = PositionCycle(study, 3)
     c = cyc.cond
     m = cyc.steps
@@ -63,7 +46,7 @@ def test_mixed_step_balances_the_load_and_stresses_match_the_surface(tmp_path):
     within [0, p_lim], and the assembled stress of body 1 at z = 0 is −p of the pressure moved
     into the body's material frame (macro field at the window centre plus the micro field of
     the fluctuation): the micro and macro parts and the frame transfer fit."""
-    study = contact_study(load_scene(_scene(tmp_path)))
+    study = contact_study(load_scene(gear_scene(tmp_path)))
     cyc = PositionCycle(study, 3)
     assert cyc.level == "mixed"
     f = cyc.solve_step(1)
@@ -84,29 +67,29 @@ def test_mixed_step_balances_the_load_and_stresses_match_the_surface(tmp_path):
 
 
 def test_thick_film_is_smooth_and_dry_level_is_a_contact(tmp_path):
-    path = _scene(tmp_path, extra=SMALL + "\n[lubrication]\nmodel = \"dry\"\n")
+    path = gear_scene(tmp_path, extra=SMALL + "\n[lubrication]\nmodel = \"dry\"\n")
     cyc = PositionCycle(contact_study(load_scene(path)), 5)
     f = cyc.solve_step(2)
     assert f.level == "dry" and f.phi == 1.0 and f.solid.any()
     assert f.pressure.mean() == pytest.approx(f.p_mean, rel=1e-10)
-    thick = _scene(tmp_path, extra=SMALL + "\n[lubrication]\nauto_lambda = 0.1\n")
+    thick = gear_scene(tmp_path, extra=SMALL + "\n[lubrication]\nauto_lambda = 0.1\n")
     cyc = PositionCycle(contact_study(load_scene(thick)), 5)
     f = cyc.solve_step(2)
     assert f.level == "smooth" and not f.solid.any() and np.ptp(f.pressure) == 0.0
 
 
 def test_mixed_needs_the_eyring_stress(tmp_path):
-    path = _scene(tmp_path, drop=("eyring_stress_MPa = 9.0",))
+    path = gear_scene(tmp_path, drop=("eyring_stress_MPa = 9.0",))
     with pytest.raises(SceneError, match=r"missing key 'lubricant.eyring_stress_MPa'.*auto"):
         PositionCycle(contact_study(load_scene(path)), 3)
 
 
 def test_same_seed_same_step_other_seed_differs(tmp_path):
-    study = contact_study(load_scene(_scene(tmp_path)))
+    study = contact_study(load_scene(gear_scene(tmp_path)))
     a = PositionCycle(study, 4).solve_step(1)
     b = PositionCycle(study, 4).solve_step(1)
     assert np.array_equal(a.pressure, b.pressure)
-    other = _scene(tmp_path, extra=SMALL.replace("steps = 4", "steps = 4\nseed = 2"))
+    other = gear_scene(tmp_path, extra=SMALL.replace("steps = 4", "steps = 4\nseed = 2"))
     c = PositionCycle(contact_study(load_scene(other)), 4).solve_step(1)
     assert not np.array_equal(a.pressure, c.pressure)
 
@@ -145,7 +128,7 @@ def test_streamed_stresses_equal_the_whole_history_bitwise(tmp_path, counting, m
     history stacked from :meth:`PositionCycle.stresses` bit for bit, for any chunk size
     (here 5 layers in chunks of 2, 2, 1, and all in one)."""
     extra = SMALL.replace("layers = 4", "layers = 5") + f'\n[fatigue]\ncounting = "{counting}"\n'
-    cyc = PositionCycle(contact_study(load_scene(_scene(tmp_path, extra=extra))), 3)
+    cyc = PositionCycle(contact_study(load_scene(gear_scene(tmp_path, extra=extra))), 3)
     fields, p = [], None
     for j in range(cyc.steps):
         fields.append(cyc.solve_step(j, p))
@@ -197,9 +180,10 @@ def _micropit(*args):
                           capture_output=True, text=True, timeout=240)
 
 
+@pytest.mark.slow
 def test_snapshot_command_writes_hdf5_and_maps(tmp_path):
     h5py = pytest.importorskip("h5py")
-    out = _micropit("snapshot", str(_scene(tmp_path)), "--position", "3", "--step", "2",
+    out = _micropit("snapshot", str(gear_scene(tmp_path)), "--position", "3", "--step", "2",
                     "--out", str(tmp_path / "snap"))
     assert out.returncode == 0, out.stderr
     assert "wrote" in out.stdout and "solid-load fraction" in out.stdout
@@ -216,13 +200,14 @@ def test_snapshot_command_writes_hdf5_and_maps(tmp_path):
     assert not list((tmp_path / "snap").glob("*.tmp*"))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("args,message", [
     (("--position", "12"), "positions 1 to 11"),
     (("--step", "9"), "steps 1 to 4"),
     (("--step", "0"), "positive whole number"),
 ])
 def test_snapshot_errors_are_one_line(tmp_path, args, message):
-    out = _micropit("snapshot", str(_scene(tmp_path)), *args, "--out", str(tmp_path / "s"))
+    out = _micropit("snapshot", str(gear_scene(tmp_path)), *args, "--out", str(tmp_path / "s"))
     assert out.returncode == 2 and message in out.stderr
     assert "Traceback" not in out.stderr
 
@@ -248,13 +233,13 @@ def test_measured_surface_from_a_scene(tmp_path):
     window = SMALL.replace("n = 32", "n = 64\nlength_x_um = 800.0\nlength_y_um = 800.0")
     own = '[body1.surface]\nacf = "exponential"\ncorr_x_um = 30.0\ncorr_y_um = 150.0\n'
     assert own in (SCENES / "gear_z23.toml").read_text()
-    path = _scene(tmp_path, extra=window + surf, drop=(own,))
+    path = gear_scene(tmp_path, extra=window + surf, drop=(own,))
     study = contact_study(load_scene(path))
     cyc = PositionCycle(study, 3)
     topo = body_surface(study.scene, 1, cyc.grid)
     assert "flank.npy" in topo.provenance
     assert np.abs(topo.heights - z).max() < 1e-12 * z.std()    # same grid: the map itself
-    missing = _scene(tmp_path, extra=window + surf.replace("flank.npy", "nope.npy"),
+    missing = gear_scene(tmp_path, extra=window + surf.replace("flank.npy", "nope.npy"),
                      drop=(own,), name="missing")
     with pytest.raises(SceneError, match=r"body1\.surface: .*nope\.npy.*not found"):
         PositionCycle(contact_study(load_scene(missing)), 3)

@@ -6,7 +6,7 @@ import sys
 
 import numpy as np
 import pytest
-from test_life import tiny_doc
+from helpers import tiny_doc
 
 import micropit_hpc.fatigue
 from micropit_hpc.conditions import contact_study

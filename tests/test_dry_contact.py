@@ -6,6 +6,7 @@ import math
 
 import numpy as np
 import pytest
+from helpers import E_PRIME, rough_gap
 
 from micropit_hpc.lubrication.dry import ContactError, ElasticHalfSpaces, solve_dry_contact
 from micropit_hpc.scene import LubricationSpec
@@ -15,7 +16,6 @@ from micropit_hpc.spectral import Grid
 TOL, MAX_ITER = LubricationSpec().tol, LubricationSpec().max_iter
 
 E, NU = 210e9, 0.3
-E_PRIME = E / (1 - NU**2)          # 2/E' = Σ(1 − ν²)/E for two steel bodies
 E_STAR = E_PRIME / 2               # Johnson's contact modulus
 R = 0.01
 
@@ -98,22 +98,11 @@ def test_westergaard_partial_contact():
     assert row.mean() == pytest.approx(p_mean, rel=1e-10)
 
 
-def _rough(seed=3, n=128):
-    """A band-limited random gap on a small window (no surfaces package needed)."""
-    g = Grid(n, n, 2e-4, 2e-4)
-    rng = np.random.default_rng(seed)
-    spec = np.fft.rfft2(rng.standard_normal(g.shape))
-    spec *= np.exp(-(g.kappa * 8e-6) ** 2)
-    z = np.fft.irfft2(spec, s=g.shape)
-    z *= 1e-6 / z.std()
-    return g, z - z.min()
-
-
 def test_pressure_cap_and_load_balance():
     """With p_lim below the elastic peak the cap holds, the mean is the load to 1e-10, and the
     complementarity conditions hold: g ≥ 0 off contact, g = 0 on elastic contact, g ≤ 0 where
     the material yielded."""
-    g, gap0 = _rough()
+    g, gap0 = rough_gap()
     hs = ElasticHalfSpaces(g, E_PRIME)
     P = 1.0e9
     elastic = solve_dry_contact(gap0, hs, P, tol=TOL, max_iter=MAX_ITER)
@@ -134,7 +123,7 @@ def test_pressure_cap_and_load_balance():
 
 
 def test_warm_start_gives_the_same_answer_faster():
-    g, gap0 = _rough(5)
+    g, gap0 = rough_gap(5)
     hs = ElasticHalfSpaces(g, E_PRIME)
     cold = solve_dry_contact(gap0, hs, 0.8e9, tol=1e-10, max_iter=MAX_ITER)
     warm = solve_dry_contact(gap0, hs, 0.8e9, tol=1e-10, max_iter=MAX_ITER,
@@ -144,7 +133,7 @@ def test_warm_start_gives_the_same_answer_faster():
 
 
 def test_zero_load_touches_and_flat_surfaces_carry_uniform_pressure():
-    g, gap0 = _rough()
+    g, gap0 = rough_gap()
     hs = ElasticHalfSpaces(g, E_PRIME)
     r = solve_dry_contact(gap0 + 3e-7, hs, 0.0, tol=TOL, max_iter=MAX_ITER)
     assert r.gap.min() == 0.0 and not r.contact.any()
@@ -153,7 +142,7 @@ def test_zero_load_touches_and_flat_surfaces_carry_uniform_pressure():
 
 
 def test_errors_are_clear():
-    g, gap0 = _rough()
+    g, gap0 = rough_gap()
     hs = ElasticHalfSpaces(g, E_PRIME)
     with pytest.raises(ContactError, match=r"did not converge.*after 3 iterations"):
         solve_dry_contact(gap0, hs, 1e9, tol=TOL, max_iter=3)
@@ -170,7 +159,7 @@ def test_inexact_set_search_finds_the_same_answer(seed, monkeypatch):
     of the cap, and the load and the cap held exactly."""
     from micropit_hpc.lubrication import dry
 
-    g, gap0 = _rough(seed)
+    g, gap0 = rough_gap(seed)
     hs = ElasticHalfSpaces(g, E_PRIME)
     P = 1.0e9
     p_lim = 0.45 * solve_dry_contact(gap0, hs, P, tol=TOL, max_iter=MAX_ITER).pressure.max()

@@ -7,7 +7,7 @@ import tomllib
 
 import numpy as np
 import pytest
-from conftest import SCENES, read_table
+from helpers import SCENES, read_table
 
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.gear import GearGeometry, GearMesh, involute, zero_backlash_centre_distance

@@ -19,9 +19,7 @@ import tomllib
 
 import numpy as np
 import pytest
-from conftest import SCENES
-from test_life import evaluate, tiny_doc
-from test_run import _write_scene
+from helpers import SCENES, evaluate, tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.conditions import contact_study
@@ -185,12 +183,13 @@ def test_pressure_range(p0, monkeypatch):
     _run_item(run, monkeypatch)
 
 
+@pytest.mark.slow
 def test_pressure_above_the_cap_is_a_clear_error(tmp_path, capsys):
     """p0 4.5 GPa > p_lim: `micropit run` exits 2 naming scene, item, p̄ and p_lim."""
     doc = tiny_doc(slide_roll=(0.3,))
     doc["disc"]["p0_GPa"] = 4.5
     doc["life"]["cycles_M"] = 1.0
-    scene = _write_scene(tmp_path / "high.toml", doc)
+    scene = write_scene(tmp_path / "high.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err
     assert "high.toml: item 0 (position 1" in err
@@ -289,13 +288,14 @@ def test_zero_roughness(model, how, monkeypatch):
         assert max(r.Rq) <= 1e-9 * max(r.wear_max)
 
 
+@pytest.mark.slow
 def test_zero_roughness_run_writes_an_infinite_lambda(tmp_path):
     """`micropit run`, two smooth bodies: Λ = λ_GF = inf in the outputs, the rest finite."""
     import h5py
 
     doc = tiny_doc(slide_roll=(0.3,), k_lub=(1e-11,))
     doc["body1"]["Rq_um"] = doc["body2"]["Rq_um"] = 0.0
-    scene = _write_scene(tmp_path / "smooth.toml", doc)
+    scene = write_scene(tmp_path / "smooth.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp_path / "out")]) == 0
     with open(tmp_path / "out" / "summary.csv", newline="") as fh:
         rows = list(csv.DictReader(fh))
@@ -535,12 +535,13 @@ def test_gear_path_ends(sharing, end, offset_deg, rq_um, monkeypatch):
         assert records[0].Ap == (0.0, 0.0) and max(records[0].max_damage) < 1e-6
 
 
+@pytest.mark.slow
 def test_gear_path_ends_through_the_run_command(tmp_path, capsys):
     """`micropit run` 1e-9° inside A and E: exit 0 with finite rows, or exit 2; no traceback."""
     # p0 ≈ 17 kPa, Λ ≈ 3.1: the full-film (smooth) level
     A, E = _path_ends()
     doc = _gear_doc("linear", [A + 1e-9, E - 1e-9])
-    scene = _write_scene(tmp_path / "ends.toml", doc)
+    scene = write_scene(tmp_path / "ends.toml", doc)
     rc = main(["run", str(scene), "--out", str(tmp_path / "out")])
     err = capsys.readouterr().err
     assert rc in (0, 2) and "Traceback" not in err

@@ -101,11 +101,11 @@ def test_a_load_stage_without_the_oil_by_grade_is_a_clear_error():
 
 
 def test_contact_shows_lambda_gf_and_s_lambda(tmp_path, capsys):
-    from test_run import _write_scene
+    from helpers import write_scene
 
     from micropit_hpc.cli import main
 
-    path = _write_scene(tmp_path / "g.toml", gear_doc(micropitting_load_stage=9))
+    path = write_scene(tmp_path / "g.toml", gear_doc(micropitting_load_stage=9))
     assert main(["contact", str(path)]) == 0
     out = capsys.readouterr().out
     assert "# ISO/TS 6336-22:2018 Method B: λ_GF,Y = h_Y/R_a" in out

@@ -1,7 +1,9 @@
-"""Stops through the job scripts (issue 21 item 4): SIGTERM and SIGUSR1 sent to the batch shell
-of jobs/slurm_array.sh and jobs/pbs.sh (outside Slurm/PBS: no requeue) reach the ranks through
-the launcher's relay, so the run checkpoints and the script exits 85; the restart then finishes
-the run. A signal while the results are written leaves exit 0 and complete results."""
+"""Stops through the job scripts (issue 21 item 4, issue 30 item 2): SIGTERM and SIGUSR1 sent to
+the script, to its mpirun, or to the whole process group (as a time limit or ``scancel``
+delivers it) end every job script — jobs/local.sh, jobs/slurm_array.sh,
+jobs/slurm_big_window.sh, jobs/pbs.sh — in a checkpoint and exit 85, and the batch scripts
+requeue (fake ``scontrol``/``squeue``/``qsub`` on PATH record it); the restart then finishes the
+run. A signal while the results are written leaves exit 0 and complete results."""
 
 from __future__ import annotations
 
@@ -14,26 +16,45 @@ import time
 from pathlib import Path
 
 import pytest
-from test_faults import _environment
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import environment, tiny_doc, write_scene
 
 from micropit_hpc.io import outdir
 from micropit_hpc.io.checkpoint import find_latest
 
 ROOT = Path(__file__).resolve().parents[1]
-pytestmark = pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+needs_mpirun = pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
+
+#: Seconds mpirun leaves the ranks after it is signalled itself (jobs/forward.sh): short here,
+#: where a block takes about a second.
+GRACE_S = "4"
 
 
 def scene(tmp_path, blocks=4):
     doc = tiny_doc(slide_roll=(0.15, 0.3))
     doc["life"]["cycles_M"] = float(blocks)
-    return _write_scene(tmp_path / "jobtiny.toml", doc)
+    return write_scene(tmp_path / "jobtiny.toml", doc)
 
 
-def start_and_signal(cmd, env, sig, log_path, after="[progress] 1/"):
+def _mpirun_child(pid):
+    """The pid of the mpirun that ``pid`` (a job script) started, or None."""
+    for d in os.listdir("/proc"):
+        if d.isdigit():
+            try:
+                with open(f"/proc/{d}/stat") as fh:
+                    fields = fh.read().rsplit(")", 1)[1].split()
+                with open(f"/proc/{d}/comm") as fh:
+                    comm = fh.read().strip()
+            except OSError:
+                continue
+            if int(fields[1]) == pid and comm in ("mpirun", "orterun", "mpiexec"):
+                return int(d)
+    return None
+
+
+def start_and_signal(cmd, env, sig, log_path, after="[progress] 1/", to="script"):
     """Start ``cmd`` (in its own session, as a batch system would), wait for ``after`` in its
-    output, send ``sig`` to the batch shell only; returns (exit code, output)."""
+    output, send ``sig`` to the script, its mpirun or the whole process group (``to``);
+    returns (exit code, output)."""
     log = open(log_path, "w+")
     proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT, text=True,
                             cwd=ROOT, start_new_session=True)
@@ -43,7 +64,14 @@ def start_and_signal(cmd, env, sig, log_path, after="[progress] 1/"):
         if after in log.read():
             break
         time.sleep(0.05)
-    proc.send_signal(sig)
+    if to == "script":
+        proc.send_signal(sig)
+    elif to == "group":
+        os.killpg(proc.pid, sig)
+    else:
+        launcher = _mpirun_child(proc.pid)
+        assert launcher is not None, "no mpirun under the script"
+        os.kill(launcher, sig)
     try:
         rc = proc.wait(timeout=120)
     except subprocess.TimeoutExpired:
@@ -54,13 +82,117 @@ def start_and_signal(cmd, env, sig, log_path, after="[progress] 1/"):
 
 
 def job_env(tmp_path, **extra):
-    env = _environment()
-    env.update(MICROPIT_PYTHON=sys.executable, NP="2", **extra)
-    for v in ("SLURM_JOB_ID", "PBS_JOBID", "SLURM_JOB_END_TIME"):
+    env = environment()
+    for v in ("SLURM_JOB_ID", "PBS_JOBID", "SLURM_JOB_END_TIME", "SLURM_RESTART_COUNT"):
         env.pop(v, None)
+    env.update(MICROPIT_PYTHON=sys.executable, NP="2", KILL_GRACE_S=GRACE_S, **extra)
     return env
 
 
+FAKE = {  # batch-system commands that record their arguments in $FAKE_LOG
+    "scontrol": 'echo "scontrol $*" >> "$FAKE_LOG"',
+    "squeue": 'date -u -d "+1 hour" +%Y-%m-%dT%H:%M:%S',
+    "qsub": 'echo "qsub $*" >> "$FAKE_LOG"; echo 124.fake',
+    "qstat": "exit 1",
+}
+
+
+def fake_batch_system(tmp_path, env):
+    """Put fake scontrol, squeue, qsub and qstat first on PATH; returns their log."""
+    bin_dir = tmp_path / "fakebin"
+    bin_dir.mkdir()
+    for name, body in FAKE.items():
+        (bin_dir / name).write_text(f"#!/bin/sh\n{body}\n")
+        (bin_dir / name).chmod(0o755)
+    log = tmp_path / "fake.log"
+    log.write_text("")
+    env.update(PATH=f"{bin_dir}{os.pathsep}{env['PATH']}", FAKE_LOG=str(log))
+    return log
+
+
+def job(script, tmp_path, path):
+    """(command, environment, output folder, requeue line) of ``script`` under a fake batch
+    system (Slurm job 4242 or PBS job 77.fake)."""
+    if script == "local":
+        out = tmp_path / "local"
+        env = job_env(tmp_path, OUT_DIR=str(out))
+        return ["bash", "jobs/local.sh", str(path)], env, out, None
+    if script == "pbs":
+        out = tmp_path / "pbs"
+        env = job_env(tmp_path, SCENE=str(path), OUT_DIR=str(out), WALLTIME="01:00:00",
+                      PBS_JOBID="77.fake")
+        return ["bash", "jobs/pbs.sh"], env, out, "qsub -W depend=afterany:77.fake"
+    env = job_env(tmp_path, OUT_ROOT=str(tmp_path / "runs"), SLURM_JOB_ID="4242",
+                  SLURM_SUBMIT_DIR=str(ROOT))
+    if script == "slurm_array":
+        return (["bash", "jobs/slurm_array.sh", str(path)], env,
+                tmp_path / "runs" / "jobtiny", "scontrol requeue 4242")
+    env["POSITION"] = "2"
+    return (["bash", "jobs/slurm_big_window.sh", str(path)], env,
+            tmp_path / "runs" / "jobtiny" / "position_2", "scontrol requeue 4242")
+
+
+@pytest.mark.slow
+@needs_mpirun
+@pytest.mark.timeout(200)
+@pytest.mark.parametrize("to", ["script", "mpirun", "group"])
+@pytest.mark.parametrize("script", ["local", "slurm_array", "slurm_big_window", "pbs"])
+def test_sigterm_ends_every_job_script_in_a_checkpoint_and_exit_85(tmp_path, script, to):
+    """SIGTERM to the script, to its mpirun (after KILL_GRACE_S mpirun passes it on) or to
+    the whole process group: a checkpoint, exit 85, and the batch scripts requeue."""
+    path = scene(tmp_path, blocks=40)
+    cmd, env, out, requeue = job(script, tmp_path, path)
+    fake = fake_batch_system(tmp_path, env)
+    rc, text = start_and_signal(cmd, env, signal.SIGTERM, tmp_path / "job.log", to=to)
+    assert rc == 85, text
+    latest = find_latest(out / "checkpoints")
+    assert latest is not None, text
+    assert "signal SIGTERM" in text or "signal SIGUSR1" in text or "stands" in text, text
+    if requeue is not None:
+        assert requeue in fake.read_text(), text + fake.read_text()
+    else:
+        assert "RESTART=1 bash jobs/local.sh" in text
+
+
+SETTLE = """
+set -u
+EXIT_CHECKPOINTED=85
+log() { echo "$*"; }
+source jobs/forward.sh
+out=$1 rc=$2 _forward_stop=$3
+_settle_exit "$out"
+echo "rc=$rc"
+"""
+
+
+@pytest.mark.parametrize("launcher, record, stop, latest, want", [
+    (1, "85", 0, True, 85),      # mpirun's 1 after a group signal; the run said 85
+    (1, "0", 0, True, 0),        # the run finished; mpirun was signalled at the end
+    (1, None, 1, True, 85),      # ranks killed mid-block after a stop signal: last checkpoint
+    (137, None, 0, True, 85),    # the launcher killed by a signal
+    (1, "signal 15", 0, True, 85),   # SIGTERM to mpirun only: rank 0 noted it, ranks killed
+    (1, "signal 15", 0, False, 1),   # ... before any checkpoint: a failure
+    (1, None, 1, False, 1),      # no checkpoint yet: a failure
+    (1, None, 0, True, 1),       # no signal: a failure (a bug), not a requeue
+    (2, "85", 1, True, 2),       # a user error stays one
+    (85, None, 0, True, 85),
+])
+def test_the_exit_code_a_job_script_settles_on(tmp_path, launcher, record, stop, latest, want):
+    """jobs/forward.sh's rule: the launcher's code unless the run's own record or a stop
+    signal with a complete checkpoint says more."""
+    out = tmp_path / "out"
+    (out / "checkpoints").mkdir(parents=True)
+    if record is not None:
+        (out / outdir.EXIT_RECORD).write_text(record + "\n")
+    if latest:
+        (out / "checkpoints" / "LATEST").write_text("ckpt_000003.h5\n")
+    p = subprocess.run(["bash", "-c", SETTLE, "settle", str(out), str(launcher), str(stop)],
+                       cwd=ROOT, capture_output=True, text=True, timeout=30)
+    assert p.stdout.strip().endswith(f"rc={want}"), p.stdout + p.stderr
+
+
+@pytest.mark.slow
+@needs_mpirun
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGUSR1])
 def test_a_signal_to_the_slurm_script_checkpoints_and_exits_85(tmp_path, sig):
@@ -81,16 +213,23 @@ def test_a_signal_to_the_slurm_script_checkpoints_and_exits_85(tmp_path, sig):
     assert outdir.check_manifest(run_dir) is None
 
 
+@pytest.mark.slow
+@needs_mpirun
 @pytest.mark.timeout(300)
-def test_sigterm_to_the_pbs_script_checkpoints_and_exits_85(tmp_path):
-    path = scene(tmp_path)
-    env = job_env(tmp_path, SCENE=str(path), OUT_DIR=str(tmp_path / "pbs"),
-                  WALLTIME="01:00:00")
-    rc, out = start_and_signal(["bash", "jobs/pbs.sh"], env, signal.SIGTERM,
-                               tmp_path / "job.log")
-    assert rc == 85, out
-    assert "checkpointed; not under PBS, so not resubmitting" in out
-    assert find_latest(tmp_path / "pbs" / "checkpoints") is not None
+def test_sigusr1_to_the_local_script_checkpoints_and_restart_finishes(tmp_path):
+    """jobs/local.sh passes SIGUSR1 on (it used to die of it, 138, while the run went on) and
+    exits 85; RESTART=1 finishes the run."""
+    path = scene(tmp_path, blocks=6)
+    out = tmp_path / "local"
+    env = job_env(tmp_path, OUT_DIR=str(out))
+    cmd = ["bash", "jobs/local.sh", str(path)]
+    rc, text = start_and_signal(cmd, env, signal.SIGUSR1, tmp_path / "job.log")
+    assert rc == 85, text
+    assert "stopped with a checkpoint (exit 85)" in text
+    p = subprocess.run(cmd, env=dict(env, RESTART="1"), cwd=ROOT, capture_output=True,
+                       text=True, timeout=240)
+    assert p.returncode == 0, p.stdout + p.stderr
+    assert outdir.check_manifest(out) is None
 
 
 WRITE_SLOWLY = """
@@ -110,18 +249,20 @@ sys.exit(rc)
 """
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(120)
 def test_a_signal_while_the_results_are_written_is_harmless(tmp_path):
     path = scene(tmp_path, blocks=2)
     out = tmp_path / "out"
     p = subprocess.run([sys.executable, "-c", WRITE_SLOWLY, "run", str(path), "--out",
-                        str(out)], env=_environment(), capture_output=True, text=True,
+                        str(out)], env=environment(), capture_output=True, text=True,
                        timeout=100)
     assert p.returncode == 0, p.stderr
     assert "signal 10 arrived after the last block; the results are complete" in p.stderr
     assert outdir.check_manifest(out) is None
 
 
+@pytest.mark.slow
 def test_the_budget_reserves_the_longest_measured_block_plus_a_checkpoint(tmp_path):
     """The stop decision is asked with 1.2 × the longest block so far (its checkpoint
     included) plus the last checkpoint's time: measured, not a fixed margin."""
@@ -148,6 +289,8 @@ def test_the_budget_reserves_the_longest_measured_block_plus_a_checkpoint(tmp_pa
     assert asked[1] >= asked[0] * 0.5 and asked[1] > NEXT_BLOCK_MARGIN * max(walls[:2])
 
 
+@pytest.mark.slow
+@needs_mpirun
 @pytest.mark.timeout(300)
 def test_the_big_window_script_splits_one_position_over_every_rank(tmp_path):
     """jobs/slurm_big_window.sh runs one position with --ranks-per-item = all ranks, through

@@ -12,10 +12,15 @@ import sys
 
 import numpy as np
 import pytest
-from conftest import ROOT
-from test_dry_contact import E_PRIME, _rough
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import (
+    E_PRIME,
+    ROOT,
+    assert_rounding_close,
+    assert_sum_close,
+    rough_gap,
+    tiny_doc,
+    write_scene,
+)
 
 from micropit_hpc import compiled
 from micropit_hpc.lubrication import dry
@@ -45,68 +50,73 @@ def stage_inputs(shape=(48, 40), seed=1):
 
 @needs_numba
 def test_compiled_stages_equal_the_numpy_stages():
-    """Each stage, same inputs: the fields written equal to round-off (the compiled ones may
-    fuse a multiply-add) and the local sums within the rounding bound of two summation orders
-    of the same n terms, 2 γ_n Σ|terms| with γ_n = n ε/(1 − n ε) (Higham, *Accuracy and
-    Stability of Numerical Algorithms* (2002), ch. 4): the compiled sums run in vector lanes,
-    NumPy's pairwise, and a sum of terms of both signs may differ in more than its 13th
-    digit."""
+    """Each stage, same inputs: the fields written equal to a few units of round-off of their
+    operands (the compiled ones may fuse a multiply-add), the local sums within the rounding
+    bound of a sum added in another order (helpers.sum_bound: n·ε·Σ|x|, set by the data, not
+    by the CPU's vector width), the counts exactly."""
     p, g0, u, g, t, allowed = stage_inputs()
     shape = p.shape
     ref, new = NumpyStages(shape), iteration_stages(shape, "numba")
     assert not isinstance(new, NumpyStages)
-    eps = np.finfo(float).eps
-    gamma = p.size * eps / (1 - p.size * eps)
 
-    def both(name, *args, fields=(), magnitudes=None):
-        """Run stage ``name`` on copies; compare what it returns (each sum within 2 γ_n times
-        its Σ|terms|, ``magnitudes(*inputs)``; counts exactly) and the fields it writes."""
+    def both(name, *args):
+        """Run stage ``name`` on copies: (NumPy's result, compiled result, both arg lists)."""
         a = [x.copy() if isinstance(x, np.ndarray) else x for x in args]
         b = [x.copy() if isinstance(x, np.ndarray) else x for x in args]
-        mags = None if magnitudes is None else magnitudes(*a)
-        ra, rb = getattr(ref, name)(*a), getattr(new, name)(*b)
-        for i in fields:
-            np.testing.assert_allclose(b[i], a[i], rtol=1e-15, atol=1e-15 * np.abs(a[i]).max())
-        if ra is not None:
-            for x, y, m in zip(np.atleast_1d(ra), np.atleast_1d(rb), mags, strict=True):
-                if m is None:
-                    assert x == y
-                else:
-                    assert abs(float(y) - float(x)) <= 2 * gamma * m
-        return ra, a
+        return getattr(ref, name)(*a), getattr(new, name)(*b), a, b
 
     on = p > 0
-    (s, n), out = both("gap", g0, u, 0.7, p, g, fields=(4,),
-                       magnitudes=lambda g0, u, c, p, g: (np.abs(g0 + c * u)[on].sum(), None))
-    assert n == np.count_nonzero(p > 0) and s == pytest.approx((g0 + 0.7 * u)[p > 0].sum())
-    gg = out[4]
-    both("centre", gg, p, float(s / n), fields=(0,),
-         magnitudes=lambda g, p, m: (((g - m) ** 2)[on].sum(),))
+    # gap: g = g0 + c u; (Σ g, count) on the contact
+    c = 0.7
+    scale = np.abs(g0) + np.abs(c * u)
+    (s_a, n_a), (s_b, n_b), a, b = both("gap", g0, u, c, p, g)
+    assert_rounding_close(b[4], a[4], scale, what="gap field")
+    assert n_a == n_b == np.count_nonzero(on)
+    assert_sum_close(s_b, s_a, scale[on], "gap sum", exact=(g0 + c * u)[on])
+    gg = a[4]
+    # centre: g −= mean; Σ g² on the contact
+    mean = float(s_a / n_a)
+    scale = np.abs(gg) + abs(mean)
+    ra, rb, a, b = both("centre", gg, p, mean)
+    assert_rounding_close(b[0], a[0], scale, what="centre field")
+    assert_sum_close(rb, ra, (scale**2)[on], "centre sum")
+    gg = a[0]
+    # direction: t = g + β t on the contact, 0 elsewhere; also into out
     buf = np.empty(shape)
-    both("direction", gg, p, t, 0.0, buf, fields=(2, 4))
-    _, out = both("direction", gg, p, t, 0.37, buf, fields=(2, 4))
-    assert np.all(out[2][p == 0] == 0) and np.array_equal(out[2], out[4])
-    both("project", u, t, gg, p, magnitudes=lambda r, t, g, p: (
-        np.abs(r)[on].sum(), np.abs(r * t).sum(), np.abs(t).sum(), np.abs(g * t).sum()))
+    for beta in (0.0, 0.37):
+        _, _, a, b = both("direction", gg, p, t, beta, buf)
+        scale = np.abs(gg) + np.abs(beta * t)
+        for i in (2, 4):
+            assert_rounding_close(b[i], a[i], scale, what=f"direction field {i}")
+        assert np.all(b[2][~on] == 0) and np.array_equal(b[2], b[4])
+    t_new = a[2]
+    # project: (Σ r on the contact, Σ r t, Σ t, Σ g t): sums of the same terms
+    ra, rb, _, _ = both("project", u, t_new, gg, p)
+    for x, y, terms, what in zip(ra, rb, (u[on], u * t_new, t_new, gg * t_new),
+                                 ("Σ r", "Σ r t", "Σ t", "Σ g t"), strict=True):
+        assert_sum_close(y, x, np.abs(terms), what, exact=terms)
+    # update: p = max(c p − τ t, 0); points at 0 with g < 0 enter at −τ g
+    c, tau = 1.3, 2e15
+    scale = np.abs(c * p) + np.abs(tau * t_new) + np.abs(tau * gg)
     for restricted in (None, allowed):
-        (n_enter, _), out = both("update", p, t, gg, 1.3, 2e15, restricted, buf, fields=(0, 6),
-                                 magnitudes=lambda p, t, g, c, tau, al, o: (
-                                     None, (np.abs(c * p) + np.abs(tau * t)
-                                            + np.abs(tau * g)).sum()))
-        assert n_enter > 0 and out[0].min() >= 0.0 and np.array_equal(out[0], out[6])
+        (ne_a, s_a), (ne_b, s_b), a, b = both("update", p, t_new, gg, c, tau, restricted, buf)
+        for i in (0, 6):
+            assert_rounding_close(b[i], a[i], scale, what=f"update field {i}")
+        assert ne_a == ne_b > 0 and b[0].min() >= 0.0 and np.array_equal(b[0], b[6])
+        assert_sum_close(s_b, s_a, scale, "update sum")
 
 
 @needs_numba
 @pytest.mark.parametrize("p_lim", [np.inf, 1.6e9])
 def test_compiled_solve_equals_the_numpy_solve(p_lim):
     """The whole dry solve with each kernel on a rough 128² gap, elastic and with the cap:
-    the same iterations (± 2) and pressures within 1e-9 of the peak; both meet the load."""
-    g, gap0 = _rough(7)
+    both converge (their iteration counts may differ: round-off changes where the error
+    crosses the tolerance), with pressures within 1e-9 of the peak; both meet the load."""
+    g, gap0 = rough_gap(7)
     hs = ElasticHalfSpaces(g, E_PRIME)
     runs = {k: solve_dry_contact(gap0, hs, 1e9, p_lim=p_lim, tol=1e-10, max_iter=5000, kernel=k)
             for k in ("numpy", "numba")}
     a, b = runs["numpy"], runs["numba"]
-    assert abs(a.iterations - b.iterations) <= 2
     assert np.abs(a.pressure - b.pressure).max() <= 1e-9 * a.pressure.max()
     for r in (a, b):
         assert r.pressure.mean() == pytest.approx(1e9, rel=1e-12) and r.error <= 1e-10
@@ -156,7 +166,7 @@ def test_compiled_stresses_equal_the_numpy_stresses(shape):
 def test_without_numba_the_numpy_path_is_taken(monkeypatch):
     """Numba made unimportable: "auto" runs the NumPy stages and combination with the same
     numbers as "numpy"; "numba" says what is missing; a wrong name is refused."""
-    g, gap0 = _rough(4, n=32)
+    g, gap0 = rough_gap(4, n=32)
     hs = ElasticHalfSpaces(g, E_PRIME)
     expect = solve_dry_contact(gap0, hs, 1e9, tol=1e-10, max_iter=5000, kernel="numpy")
     grid = Grid(16, 16, 1e-4, 1e-4)
@@ -185,20 +195,21 @@ COMPILED_MODULES = ("_dry_numba", "_halfspace_numba", "_dangvan_numba")
 
 
 @needs_numba
-@pytest.mark.timeout(90)
+@pytest.mark.slow
+@pytest.mark.timeout(300)
 def test_a_first_run_compiles_every_kernel_from_an_empty_cache_without_hanging(tmp_path):
     """CI and a user's first run start with no Numba cache: a small run must compile every
     kernel it uses and finish. Numba's IR-level ``inline="always"`` on the layer pass once
     made its cold compilation take minutes and a first run time out in CI, hidden here by a
     warm ``__pycache__``. The limit is a hang guard, several times the measured cold run
     (docs/performance.md §10), not a timing claim."""
-    scene = _write_scene(tmp_path / "t.toml", tiny_doc(slide_roll=(0.3,)))
+    scene = write_scene(tmp_path / "t.toml", tiny_doc(slide_roll=(0.3,)))
     cache = tmp_path / "numba-cache"
     env = {k: v for k, v in os.environ.items() if not k.startswith(("OMPI_", "PMIX_"))}
     env.update(NUMBA_CACHE_DIR=str(cache), PYTHONPATH=str(ROOT))
     run = subprocess.run([sys.executable, "-m", "micropit_hpc", "run", str(scene), "--out",
                           str(tmp_path / "out")], env=env, cwd=tmp_path, capture_output=True,
-                         text=True, timeout=60)
+                         text=True, timeout=240)
     assert run.returncode == 0, run.stderr[-3000:]
     for mod in COMPILED_MODULES:        # each compiled here, not taken from a warm cache
         assert list(cache.rglob(f"{mod}.*.nbi")), (mod, sorted(p.name for p in cache.rglob("*")))

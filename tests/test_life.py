@@ -6,6 +6,7 @@ import itertools
 
 import numpy as np
 import pytest
+from helpers import evaluate, fake_result, tiny_doc
 
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import BodyCycle, CycleResult, PositionCycle, micro_cycles, rainflow_steps
@@ -14,7 +15,6 @@ from micropit_hpc.life import (
     LifeState,
     _new_pits,
     apply_cycles,
-    contact_surfaces,
     initial_state,
     run_block,
     shape_change,
@@ -30,35 +30,10 @@ from micropit_hpc.study import ItemRun
 from micropit_hpc.wear import WearRate, archard_wear, to_material_frame
 
 
-def tiny_doc(slide_roll=(0.0, 0.3), k_lub=(0.0,)):
-    return {
-        "study": {"name": "tiny"},
-        "disc": {"p0_GPa": 1.1, "u_mean_m_s": 1.1, "slide_roll": list(slide_roll),
-                 "radius1_x_mm": 6.0, "radius2_x_mm": 27.075},
-        "body1": {"E_GPa": 210.0, "nu": 0.3, "Rq_um": 0.16,
-                  "surface": {"acf": "gaussian", "corr_x_um": 15.0}},
-        "body2": {"E_GPa": 210.0, "nu": 0.3, "Rq_um": 0.21,
-                  "surface": {"acf": "gaussian", "corr_x_um": 15.0}},
-        "lubricant": {"eta0_mPas": 3.1, "alpha_pv_1_per_GPa": 14.0, "eyring_stress_MPa": 5.0},
-        "film": {"hc_um": 0.037},
-        "window": {"n": 32, "steps": 8},
-        "stress": {"layers": 6},
-        "wear": {"k_lub_s": list(k_lub)},
-        # the life-loop tests check Miner, wear, pits, restarts and invariances, not how finely
-        # the running-in is resolved: the previous default keeps them quick
-        "life": {"cycles_M": 2.0, "block_M": 1.0, "max_splits": 4},
-    }
-
-
 @pytest.fixture(scope="module")
 def tiny():
     scene = scene_from_dict(tiny_doc(), "tiny.toml")
     return scene, contact_study(scene)
-
-
-def evaluate(cycle: PositionCycle, state: LifeState):
-    """One load cycle on the surfaces the contact sees in ``state`` (as run_block does)."""
-    return cycle.evaluate(*contact_surfaces(state, cycle.grid, cycle.scene.life.pit_contact))
 
 
 # ---- pits and damage columns ------------------------------------------------------------------
@@ -142,16 +117,6 @@ def test_archard_rate_formula():
 
 
 # ---- Miner, wear and pits through apply_cycles -------------------------------------------------
-def _fake_result(shape, nz, d_rate, w_rate):
-    bodies = tuple(BodyCycle(damage_rate=np.full((nz, *shape), d_rate),
-                             wear=WearRate(np.zeros(shape), np.full(shape, w_rate),
-                                           np.zeros(shape)),
-                             tau_rough=np.zeros((nz, *shape)),
-                             tau_smooth=np.zeros(nz), n_micro=0.0, lam_c=np.inf)
-                   for _ in range(2))
-    return CycleResult(bodies=bodies, phi=0.0, solid_fraction=0.0, steps=1, wall_s=0.0)
-
-
 def test_miner_additivity(tiny):
     """Two blocks of ΔN equal one block of 2ΔN when nothing changes (no pits, no wear)."""
     scene, study = tiny
@@ -183,7 +148,7 @@ def test_damage_column_moves_with_wear(tiny):
     before = [bs.damage.copy() for bs in st.bodies]
     h0 = [bs.heights.copy() for bs in st.bodies]
     delta = 0.5 * cyc.z[1]
-    apply_cycles(st, _fake_result(cyc.grid.shape, cyc.z.size, 0.0, delta / 1e6), 1e6, cyc.z,
+    apply_cycles(st, fake_result(cyc.grid.shape, cyc.z.size, 0.0, delta / 1e6), 1e6, cyc.z,
                  cyc.slab, "relaxed")
     for bs, d0, h in zip(st.bodies, before, h0, strict=True):
         np.testing.assert_allclose(bs.damage, shift_columns(d0, cyc.z, np.full(h.shape, delta)),
@@ -359,7 +324,7 @@ def test_a_block_records_the_largest_pit_step(tiny, monkeypatch):
     nz, (nx, ny) = len(cycle.z), cycle.grid.shape
     rate = np.zeros((nz, nx, ny))
     rate[0] = (nx * ny / (block * (np.arange(nx * ny) + 0.5))).reshape(nx, ny)
-    fixed = _fake_result((nx, ny), nz, 0.0, 0.0)
+    fixed = fake_result((nx, ny), nz, 0.0, 0.0)
     fixed = dataclasses.replace(fixed, bodies=tuple(
         dataclasses.replace(b, damage_rate=rate) for b in fixed.bodies))
     monkeypatch.setattr(cycle, "evaluate", lambda *a: fixed)

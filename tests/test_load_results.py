@@ -13,8 +13,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.errors import MicropitError
@@ -37,7 +36,9 @@ def run_dir(tmp_path_factory):
     doc["life"] = {"cycles_M": 2.0, "block_M": 1.0, "max_splits": 1}
     doc["window"] = {"n": 16, "ny": 12, "steps": 3}
     doc["stress"] = {"layers": 3}
-    scene = _write_scene(tmp / "tiny.toml", doc)
+    for body in ("body1", "body2"):       # wider than the window holds: window_problems
+        doc[body]["surface"]["corr_y_um"] = 300.0
+    scene = write_scene(tmp / "tiny.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp / "out"), "--quiet"]) == 0
     return tmp / "out"
 
@@ -55,6 +56,7 @@ def _same(a, b):
     return a.shape == b.shape and np.array_equal(a, b)
 
 
+@pytest.mark.slow
 def test_every_dataset_and_attribute_reads_back_as_written(run_dir):
     res = load_results(run_dir)
     assert res.file == run_dir / "results.h5" and res.folder == run_dir
@@ -95,6 +97,7 @@ def test_every_dataset_and_attribute_reads_back_as_written(run_dir):
     assert res.path_points == {}                                   # a disc rig: no A–E
 
 
+@pytest.mark.slow
 def test_shapes_units_and_the_summary_agree(run_dir):
     res = load_results(run_dir)
     assert res.status == "done" and res.scene["study"]["name"] == "tiny"
@@ -132,6 +135,7 @@ def test_shapes_units_and_the_summary_agree(run_dir):
             assert 100 * pitted.mean() == pytest.approx(res.history[iid]["Ap"][-1, body - 1])
 
 
+@pytest.mark.slow
 def test_the_results_are_frozen(run_dir):
     res = load_results(run_dir)
     with pytest.raises(dataclasses.FrozenInstanceError):
@@ -157,6 +161,7 @@ def _broken(run_dir, tmp_path, change) -> Path:
     return out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize(("change", "message"), [
     (lambda f: f.__delitem__("history/item_00001/Ap"), "dataset history/item_00001/Ap is missing"),
     (lambda f: f.__delitem__("grid/z"), "dataset grid/z is missing"),
@@ -173,6 +178,7 @@ def test_a_missing_part_is_named(run_dir, tmp_path, change, message):
     assert isinstance(e.value, MicropitError)
 
 
+@pytest.mark.slow
 def test_a_missing_map_is_named(run_dir, tmp_path):
     out = _broken(run_dir, tmp_path, lambda f: f.__delitem__("maps/item_00001/body2/wear"))
     res = load_results(out)
@@ -183,6 +189,7 @@ def test_a_missing_map_is_named(run_dir, tmp_path):
         res.maps(5, 1)
 
 
+@pytest.mark.slow
 def test_not_a_results_file(run_dir, tmp_path):
     with pytest.raises(ResultsError, match="no such file or folder"):
         load_results(tmp_path / "nothing")
@@ -203,6 +210,7 @@ def test_not_a_results_file(run_dir, tmp_path):
         load_results(tmp_path / "other.h5")
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("keep", [0.05, 0.5, 0.9])
 def test_a_truncated_file_is_a_clear_error(run_dir, tmp_path, keep):
     data = (run_dir / "results.h5").read_bytes()
@@ -215,6 +223,7 @@ def test_a_truncated_file_is_a_clear_error(run_dir, tmp_path, keep):
             res.maps(iid, 2)
 
 
+@pytest.mark.slow
 def test_a_truncated_summary_is_a_clear_error(run_dir, tmp_path):
     text = (run_dir / "summary.csv").read_text()
     (tmp_path / "summary.csv").write_text(text[:len(text) // 2 + 7])
@@ -244,6 +253,7 @@ def test_postprocess_scripts_need_no_h5py():
         assert "import h5py" not in text and "h5py." not in text, script.name
 
 
+@pytest.mark.slow
 def test_the_plot_scripts_run_on_a_real_run(run_dir, tmp_path):
     run = tmp_path / "run"
     shutil.copytree(run_dir, run, ignore=shutil.ignore_patterns("checkpoints"))

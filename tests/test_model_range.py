@@ -11,9 +11,7 @@ import tomllib
 
 import numpy as np
 import pytest
-from conftest import SCENES
-from test_life import _fake_result, tiny_doc
-from test_run import _write_scene
+from helpers import SCENES, fake_result, tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.conditions import contact_study
@@ -66,7 +64,7 @@ def test_a_block_reports_its_low_cycle_damage_and_pits(tiny_cycle, monkeypatch):
     rate[0, : nx // 2] = 2e-6                    # fails at 0.5 M cycles, all low-cycle
     low[0, : nx // 2] = 2e-6
     rate[0, nx // 2: 3 * nx // 4] = 4e-6         # fails at 0.25 M, high-cycle
-    fixed = _fake_result((nx, ny), nz, 0.0, 0.0)
+    fixed = fake_result((nx, ny), nz, 0.0, 0.0)
     fixed = dataclasses.replace(fixed, bodies=tuple(
         dataclasses.replace(b, damage_rate=rate, damage_low=low) for b in fixed.bodies))
     monkeypatch.setattr(cyc, "evaluate", lambda *a: fixed)
@@ -89,7 +87,7 @@ def test_the_paper_scheme_wears_failing_material_away_before_the_pit_check(tiny_
     nz, shape = cyc.z.size, cyc.grid.shape
     rate = np.zeros((nz, *shape))
     rate[0] = 2e-6
-    fixed = _fake_result(shape, nz, 0.0, cyc.z[1] / 1e6)
+    fixed = fake_result(shape, nz, 0.0, cyc.z[1] / 1e6)
     fixed = dataclasses.replace(fixed, bodies=tuple(
         dataclasses.replace(b, damage_rate=rate) for b in fixed.bodies))
     calls = []
@@ -202,6 +200,7 @@ def test_each_limit_raises_its_flag_and_one_warning_line(kw, flag):
     assert block_flags(inside, 25e-6, window_ok=False) == ["window"]
 
 
+@pytest.mark.slow
 def test_a_run_reports_the_range_in_summary_log_and_results(tmp_path, capsys):
     """The quick gear scene's position 2 (single-pair zone, dry, asperity stresses far past the
     S–N line's data: more than 90 % of the first block's damage from N < n_min) in a short
@@ -212,7 +211,7 @@ def test_a_run_reports_the_range_in_summary_log_and_results(tmp_path, capsys):
     doc = tomllib.loads((SCENES / "quick.toml").read_text())
     doc["window"]["n"] = 32
     doc["life"].update(cycles_M=2.0, block_M=1.0)
-    scene = _write_scene(tmp_path / "harsh.toml", doc)
+    scene = write_scene(tmp_path / "harsh.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp_path / "out"), "--position", "2"]) == 0
     err = capsys.readouterr().err
     rows = list(csv.DictReader(open(tmp_path / "out" / "summary.csv")))

@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from test_life import tiny_doc
+from helpers import tiny_doc
 
 from micropit_hpc.errors import SceneError
 from micropit_hpc.oil import density, oil_at, walther_constants, walther_viscosity, wooster_alpha
@@ -103,13 +103,13 @@ def test_values_in_the_wrong_unit_are_warned_about():
 
 
 def test_contact_prints_the_oil_and_the_warnings(tmp_path, capsys):
-    from test_run import _write_scene
+    from helpers import write_scene
 
     from micropit_hpc.cli import main
 
     doc = grade_doc()
     doc["body1"]["Rq_um"] = 5e-7
-    assert main(["contact", str(_write_scene(tmp_path / "g.toml", doc))]) == 0
+    assert main(["contact", str(write_scene(tmp_path / "g.toml", doc))]) == 0
     out = capsys.readouterr()
     assert "# lubricant at 70 °C: η0 = ν ρ = " in out.out
     assert "micropit: warning: " in out.err and "body1.Rq_um = 5e-07" in out.err

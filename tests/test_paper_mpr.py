@@ -8,7 +8,7 @@ import csv
 import importlib.util
 
 import pytest
-from conftest import ROOT, read_table
+from helpers import ROOT, read_table
 
 from micropit_hpc.study import SUMMARY_COLUMNS
 

@@ -9,7 +9,7 @@
 
 import numpy as np
 import pytest
-from test_life import tiny_doc
+from helpers import tiny_doc
 
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle

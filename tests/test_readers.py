@@ -344,11 +344,11 @@ def test_maps_that_are_not_height_maps_name_the_fault(tmp_path, data, words):
     assert words in text and "smaller than the simulation window" not in text
 
 
+@pytest.mark.slow
 def test_the_scene_run_names_a_map_fault_in_one_line(tmp_path, capsys):
     """Through `micropit run`: the error names the file, the body's surface key and the
     fault (not the window size)."""
-    from test_life import tiny_doc
-    from test_run import _write_scene
+    from helpers import tiny_doc, write_scene
 
     from micropit_hpc.cli import main
 
@@ -356,7 +356,7 @@ def test_the_scene_run_names_a_map_fault_in_one_line(tmp_path, capsys):
     doc = tiny_doc(slide_roll=(0.3,))
     doc["body1"]["surface"] = {"kind": "file", "file": "c.npy", "spacing_um": [40.0, 40.0],
                                "rescale": True}
-    scene = _write_scene(tmp_path / "s.toml", doc)
+    scene = write_scene(tmp_path / "s.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp_path / "o")]) == 2
     err = [ln for ln in capsys.readouterr().err.splitlines() if not ln.startswith("# ")]
     assert len(err) == 1 and err[0].startswith("micropit: error: ")

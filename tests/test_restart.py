@@ -4,7 +4,6 @@ A run stopped after k blocks (STOP file, wall-time budget, SIGUSR1, SIGKILL) and
 give the same summary.csv and results.h5 as the straight run, bit for bit.
 """
 
-import os
 import shutil
 import signal
 import subprocess
@@ -15,8 +14,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import environment, results_differ, tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.io.checkpoint import find_latest
@@ -32,36 +30,16 @@ def tiny3(**kw):
     return doc
 
 
-def results_differ(a: Path, b: Path) -> list[str]:
-    """Datasets of results.h5 that differ (wall times excepted), and summary.csv."""
-    out = []
-    if (a / "summary.csv").read_text() != (b / "summary.csv").read_text():
-        out.append("summary.csv")
-    with h5py.File(a / "results.h5", "r") as fa, h5py.File(b / "results.h5", "r") as fb:
-        names = []
-        fa.visititems(lambda n, o: names.append(n) if isinstance(o, h5py.Dataset) else None)
-        for n in names:
-            if n.endswith("wall_s"):
-                continue
-            if n not in fb:
-                out.append(n)
-                continue
-            x, y = fa[n][()], fb[n][()]
-            if not np.array_equal(x, y, equal_nan=np.asarray(x).dtype.kind == "f"):
-                out.append(n)
-        assert len(names) > 30
-    return out
-
-
 @pytest.fixture(scope="module")
 def straight(tmp_path_factory):
     """The straight 3-block run of the tiny study (4 items)."""
     d = tmp_path_factory.mktemp("straight")
-    scene = _write_scene(d / "tiny.toml", tiny3())
+    scene = write_scene(d / "tiny.toml", tiny3())
     assert main(["run", str(scene), "--out", str(d / "out")]) == 0
     return scene, d / "out"
 
 
+@pytest.mark.slow
 def test_record_rows_round_trip(straight):
     _, out = straight
     with h5py.File(out / "checkpoints" / "ckpt_000003.h5", "r") as f:
@@ -71,6 +49,7 @@ def test_record_rows_round_trip(straight):
         assert np.array_equal(record_row(record_from_row(row)), row)
 
 
+@pytest.mark.slow
 def test_a_stopped_and_restarted_run_equals_the_straight_run(straight, tmp_path, capsys):
     scene, ref = straight
     stop = tmp_path / "STOP"
@@ -89,6 +68,7 @@ def test_a_stopped_and_restarted_run_equals_the_straight_run(straight, tmp_path,
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_restart_skips_a_torn_checkpoint_and_a_leftover_tmp(straight, tmp_path, capsys):
     scene, ref = straight
     out = tmp_path / "out"
@@ -106,6 +86,7 @@ def test_restart_skips_a_torn_checkpoint_and_a_leftover_tmp(straight, tmp_path, 
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_a_different_scene_is_refused_unless_forced(straight, tmp_path, capsys):
     scene, ref = straight
     out = tmp_path / "out"
@@ -114,7 +95,7 @@ def test_a_different_scene_is_refused_unless_forced(straight, tmp_path, capsys):
         p.unlink()
     doc = tiny3()
     doc["fatigue"] = {"woehler_B_MPa": 1650.0}
-    other = _write_scene(tmp_path / "other.toml", doc)
+    other = write_scene(tmp_path / "other.toml", doc)
     assert main(["run", str(other), "--out", str(out), "--restart"]) == 2
     err = capsys.readouterr().err
     assert "different scene" in err and "fatigue" in err and "--force" in err
@@ -125,6 +106,7 @@ def test_a_different_scene_is_refused_unless_forced(straight, tmp_path, capsys):
     assert "other work items" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_restart_without_a_checkpoint_starts_afresh(straight, tmp_path, capsys):
     scene, ref = straight
     out = tmp_path / "out"
@@ -133,6 +115,7 @@ def test_restart_without_a_checkpoint_starts_afresh(straight, tmp_path, capsys):
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 def test_the_wall_time_budget_stops_at_a_block_boundary(straight, tmp_path, capsys):
     scene, _ = straight
     out = tmp_path / "out"
@@ -142,6 +125,7 @@ def test_the_wall_time_budget_stops_at_a_block_boundary(straight, tmp_path, caps
     assert find_latest(out / "checkpoints") is not None
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("value", ["0", "-5", "1:2:3:4", "ten"])
 def test_a_bad_wall_time_is_a_clear_error(tmp_path, capsys, value):
     with pytest.raises(SystemExit):
@@ -149,24 +133,17 @@ def test_a_bad_wall_time_is_a_clear_error(tmp_path, capsys, value):
     assert "--max-wall" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_unknown_double_dash_options_are_still_errors(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["run", "x.toml", "--out", str(tmp_path), "--restat"])
     assert "unrecognized arguments: --restat" in capsys.readouterr().err
 
 
-def _environment():
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith(("OMPI_COMM_WORLD", "PMIX_", "PMI_"))}
-    env["PYTHONPATH"] = str(ROOT)
-    env["PYTHONUNBUFFERED"] = "1"
-    return env
-
-
 def _start_and_signal(cmd, sig, tmp_path):
     """Start ``cmd``, wait for its first progress line (block 1 done), send ``sig``."""
     log = open(tmp_path / "stderr.txt", "w+")
-    proc = subprocess.Popen(cmd, env=_environment(), stdout=subprocess.DEVNULL, stderr=log,
+    proc = subprocess.Popen(cmd, env=environment(), stdout=subprocess.DEVNULL, stderr=log,
                             text=True)
     deadline = time.monotonic() + 90
     while time.monotonic() < deadline:
@@ -182,6 +159,7 @@ def _start_and_signal(cmd, sig, tmp_path):
     return rc, log.read()
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(240)
 def test_sigusr1_checkpoints_and_exits_85_then_restart_equals_straight(straight, tmp_path):
     scene, ref = straight
@@ -195,6 +173,7 @@ def test_sigusr1_checkpoints_and_exits_85_then_restart_equals_straight(straight,
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(240)
 def test_a_killed_run_restarts_to_the_straight_result(straight, tmp_path):
     scene, ref = straight
@@ -206,6 +185,7 @@ def test_a_killed_run_restarts_to_the_straight_result(straight, tmp_path):
     assert results_differ(ref, out) == []
 
 
+@pytest.mark.slow
 @pytest.mark.timeout(300)
 @pytest.mark.skipif(shutil.which("mpirun") is None, reason="needs mpirun")
 def test_sigusr1_to_mpirun_stops_both_ranks_with_85(straight, tmp_path):

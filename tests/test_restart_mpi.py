@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from test_life import tiny_doc
+from helpers import tiny_doc
 
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.runner import RunOptions, run_study
@@ -48,6 +48,7 @@ def serial_reference(scene, out: Path):
     return outcome_data(o)
 
 
+@pytest.mark.slow
 @pytest.mark.mpi(min_size=2)
 @pytest.mark.timeout(300)
 def test_stop_and_restart_on_2_then_1_ranks_equal_the_straight_run(shared_dir):
@@ -81,6 +82,7 @@ def test_stop_and_restart_on_2_then_1_ranks_equal_the_straight_run(shared_dir):
     assert agree(comm, ok)
 
 
+@pytest.mark.slow
 @pytest.mark.mpi(min_size=2)
 @pytest.mark.timeout(300)
 def test_a_window_split_over_two_ranks_equals_one_rank(shared_dir):
@@ -127,6 +129,7 @@ def test_a_window_split_over_two_ranks_equals_one_rank(shared_dir):
     assert agree(comm, ok)
 
 
+@pytest.mark.slow
 @pytest.mark.mpi(min_size=2)
 @pytest.mark.timeout(300)
 def test_a_rank_without_items_checkpoints_and_restarts(shared_dir):

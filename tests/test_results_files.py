@@ -10,8 +10,7 @@ import xml.etree.ElementTree as ET
 import h5py
 import numpy as np
 import pytest
-from test_life import tiny_doc
-from test_run import _write_scene
+from helpers import tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 
@@ -24,11 +23,12 @@ def run_dir(tmp_path_factory):
     doc["window"] = {"n": 16, "ny": 12, "steps": 3}
     doc["stress"] = {"layers": 3}
     doc["lubricant"]["lambda_GFT"] = 0.3
-    scene = _write_scene(tmp / "tiny.toml", doc)
+    scene = write_scene(tmp / "tiny.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp / "out"), "--quiet"]) == 0
     return tmp
 
 
+@pytest.mark.slow
 def test_every_dataset_has_a_unit_and_the_grid_has_coordinates(run_dir):
     missing = []
     with h5py.File(run_dir / "out" / "results.h5", "r") as f:
@@ -48,6 +48,7 @@ def test_every_dataset_has_a_unit_and_the_grid_has_coordinates(run_dir):
     assert missing == []
 
 
+@pytest.mark.slow
 def test_the_xdmf_references_every_map_with_its_shape(run_dir):
     """Parse results.xdmf as any XDMF reader does and read every referenced dataset."""
     xdmf = run_dir / "out" / "results.xdmf"
@@ -80,6 +81,7 @@ def test_the_xdmf_references_every_map_with_its_shape(run_dir):
     assert maps | {"/grid/x", "/grid/y", "/grid/z"} == seen
 
 
+@pytest.mark.slow
 def test_provenance_names_the_libraries_and_hashes_the_inputs(run_dir):
     import numpy
     import scipy

@@ -1,7 +1,6 @@
 """micropit run: work items, summary.csv, results.h5; same numbers on 1 and 2 ranks."""
 
 import csv
-import json
 import math
 import re
 from dataclasses import replace
@@ -10,7 +9,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 import pytest
-from test_life import tiny_doc
+from helpers import tiny_doc, write_scene
 
 from micropit_hpc.cli import main
 from micropit_hpc.parallel import SerialComm
@@ -20,21 +19,6 @@ from micropit_hpc.scene import scene_from_dict
 from micropit_hpc.study import SUMMARY_COLUMNS, Study
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def _write_scene(path, doc):
-    def val(v):
-        return json.dumps(v) if not isinstance(v, list) else "[" + ", ".join(map(str, v)) + "]"
-    lines = []
-    for table, keys in doc.items():
-        sub = {k: v for k, v in keys.items() if isinstance(v, dict)}
-        lines.append(f"[{table}]")
-        lines += [f"{k} = {val(v)}" for k, v in keys.items() if not isinstance(v, dict)]
-        for name, t in sub.items():
-            lines.append(f"[{table}.{name}]")
-            lines += [f"{k} = {val(v)}" for k, v in t.items()]
-    path.write_text("\n".join(lines) + "\n")
-    return path
 
 
 def test_work_item_ids_are_stable():
@@ -47,10 +31,11 @@ def test_work_item_ids_are_stable():
         (4, 2, 0.0, 1.0)]
 
 
+@pytest.mark.slow
 def test_run_writes_summary_and_results(tmp_path, capsys):
     doc = tiny_doc(slide_roll=(0.3,), k_lub=(0.0, 1e-11))
     doc["study"]["roughness_scale"] = [1.0, 0.5]
-    scene = _write_scene(tmp_path / "tiny.toml", doc)
+    scene = write_scene(tmp_path / "tiny.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp_path / "out")]) == 0
     rows = list(csv.DictReader(open(tmp_path / "out" / "summary.csv")))
     assert tuple(rows[0].keys()) == SUMMARY_COLUMNS
@@ -106,8 +91,9 @@ def test_a_warning_names_few_items_and_counts_many():
     assert item_list(list(range(20)), show=3) == "items 0, 1, 2, … and 17 more (20 items)"
 
 
+@pytest.mark.slow
 def test_bad_position_is_a_clear_error(tmp_path, capsys):
-    scene = _write_scene(tmp_path / "tiny.toml", tiny_doc())
+    scene = write_scene(tmp_path / "tiny.toml", tiny_doc())
     assert main(["run", str(scene), "--out", str(tmp_path / "o"), "--position", "7"]) == 2
     assert "position 7 does not exist" in capsys.readouterr().err
 
@@ -150,6 +136,7 @@ def coarse_quick_scene(path, positions: str):
     return path
 
 
+@pytest.mark.slow
 def test_quick_scene_runs_and_the_flank_plot_reads_it(tmp_path):
     """scenes/quick.toml (coarsened) through `micropit run`, postprocess/plot_flank.py and
     postprocess/plot_life.py."""
@@ -179,16 +166,18 @@ def test_quick_scene_runs_and_the_flank_plot_reads_it(tmp_path):
     assert (out / "life.png").stat().st_size > 10_000     # A_p against cycles, damage maps
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("S", [2.0, -2.0])
 def test_pure_sliding_is_a_clear_error_for_the_life_run(tmp_path, capsys, S):
     """|S| = 2 leaves one surface at rest: it never completes a load cycle (it used to end in
     a ZeroDivisionError in the micro-cycle count)."""
-    scene = _write_scene(tmp_path / "slide.toml", tiny_doc(slide_roll=(S,)))
+    scene = write_scene(tmp_path / "slide.toml", tiny_doc(slide_roll=(S,)))
     assert main(["run", str(scene), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "slide.toml: disc.slide_roll = " in err and "|S| < 2" in err
 
 
+@pytest.mark.slow
 def test_positions_at_the_ends_of_the_path_of_contact_run(tmp_path):
     """Near-zero load at the very start and end of the path (p0 of a few MPa, with linear load
     sharing): the life run finishes with finite numbers, A_p in [0, 100], no damage < 0."""
@@ -205,12 +194,13 @@ def test_positions_at_the_ends_of_the_path_of_contact_run(tmp_path):
         assert 0.0 <= float(r["Ap_pct"]) <= 100.0 and float(r["max_damage"]) >= 0.0
 
 
+@pytest.mark.slow
 def test_a_failing_item_is_named_in_the_error(tmp_path, capsys):
     """A contact that cannot converge stops the run with the item, position, k_lub and
     block in the message, not only the solver's words."""
     doc = tiny_doc(slide_roll=(0.3,))
     doc["lubrication"] = {"max_iterations": 10, "tolerance": 1e-14}
-    scene = _write_scene(tmp_path / "s.toml", doc)
+    scene = write_scene(tmp_path / "s.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp_path / "out")]) != 0
     err = capsys.readouterr().err
     assert "item 0 (position 1, k_lub 0 s, roughness × 1, patch 0), block 1:" in err

@@ -8,7 +8,7 @@ import subprocess
 import sys
 
 import pytest
-from conftest import ROOT, SCENES
+from helpers import ROOT, SCENES
 
 from micropit_hpc.errors import SceneError
 from micropit_hpc.scene import load_scene
@@ -292,3 +292,91 @@ def test_cli_unwritable_csv_is_a_plain_error(tmp_path):
     assert out.stderr.startswith(f"micropit: error: cannot write --csv {tmp_path}: ")
     out = run_cli("check-env", "--expect-ranks", "0")
     assert out.returncode == 2 and "expected a positive whole number" in out.stderr
+
+
+# ---- issue 30 item 4: the smaller faults ------------------------------------------------------
+@pytest.mark.timeout(60)
+def test_a_named_pipe_as_the_scene_is_refused_without_reading_it(tmp_path):
+    """A FIFO used to block `micropit scene` for ever (the read waits for a writer)."""
+    import os
+
+    fifo = tmp_path / "scene.toml"
+    os.mkfifo(fifo)
+    assert "is not a regular file (a named pipe)" in error_of(fifo)
+    p = subprocess.run([sys.executable, "-m", "micropit_hpc", "scene", str(fifo)], cwd=ROOT,
+                       capture_output=True, text=True, timeout=30)
+    assert p.returncode == 2 and "named pipe" in p.stderr
+
+
+@pytest.mark.parametrize("text, expect", [
+    ('[study]\nname = "a"\nname = "b"\n', "key 'study.name' is given twice (again at line 3)"),
+    ('[gear]\nmodule_mm = 3\n[body1]\nRq_um = 1\n[body1.surface]\ncorr_x_um = 3\n'
+     'corr_x_um = 4\n', "key 'body1.surface.corr_x_um' is given twice (again at line 7)"),
+    ('[study]\nname = "a"\n[study]\n', "table [study] is given twice (again at line 3)"),
+    ('top = 1\ntop = 2\n', "key 'top' is given twice"),
+])
+def test_a_key_or_table_given_twice_is_named(tmp_path, text, expect):
+    path = tmp_path / "dup.toml"
+    path.write_text(text)
+    assert expect in error_of(path)
+
+
+@pytest.mark.parametrize("key", ["file", "dataset"])
+def test_a_surface_file_for_a_body_whose_kind_ignores_it_is_an_error(tmp_path, key):
+    path = broken(tmp_path, "corr_y_um = 100.0\n", f'corr_y_um = 100.0\n{key} = "flank.npy"\n')
+    msg = error_of(path)
+    assert f'body1.surface.{key} = "flank.npy"' in msg and 'kind is "gaussian"' in msg
+
+
+def test_lengths_that_look_like_metres_are_warned_about(tmp_path):
+    from micropit_hpc.plan import make_plan
+
+    path = broken(tmp_path, "corr_x_um = 30.0", "corr_x_um = 3e-5")
+    scene = load_scene(path)
+    assert any("body1.surface.corr_x_um = 3e-05 looks like a value in metres" in w
+               for w in scene.warnings), scene.warnings
+    plan = make_plan(scene)
+    assert any("body1.surface.corr_x_um = 3e-05 µm is shorter than one grid cell along x" in w
+               for w in plan.warnings), plan.warnings
+    assert not make_plan(load_scene(SCENES / "paper_gear_z23.toml")).warnings
+
+
+def test_a_load_no_steel_carries_is_warned_about(tmp_path):
+    """torque_Nm = 251000 (N·mm written as N·m) gives p0 = 34 GPa."""
+    from micropit_hpc.plan import make_plan
+
+    plan = make_plan(load_scene(broken(tmp_path, "torque_Nm = 251.0", "torque_Nm = 251000",
+                                       scene="quick")))
+    w = [w for w in plan.warnings if "above what any steel carries" in w]
+    assert len(w) == 1 and "p0 = 34.3 GPa" in w[0] and "gear.torque_Nm = 251000" in w[0]
+    p = subprocess.run([sys.executable, "-m", "micropit_hpc", "scene",
+                        str(tmp_path / "bad.toml")], cwd=ROOT, capture_output=True, text=True,
+                       timeout=60)
+    assert p.returncode == 0 and "p0 = 34.3 GPa" in p.stderr
+
+
+def test_the_default_surfaces_fit_the_default_window(tmp_path):
+    """A gear scene that leaves β_y at its default is not told that its window does not hold
+    the roughness (the default was 300 µm: every such scene warned)."""
+    from micropit_hpc.plan import make_plan
+
+    text = (SCENES / "quick.toml").read_text().replace("corr_y_um = 150.0\n", "")
+    path = tmp_path / "default_beta.toml"
+    path.write_text(text)
+    scene = load_scene(path)
+    assert scene.body1.surface.corr_y == scene.body2.surface.corr_y == pytest.approx(90e-6)
+    plan = make_plan(scene)
+    assert plan.window_problems == () and plan.warnings == ()
+
+
+def test_no_shipped_scene_relies_on_the_default_correlation_lengths():
+    """The shipped scenes give β_x and β_y of every Gaussian surface themselves, so a change
+    of the defaults does not change their results."""
+    import tomllib
+
+    for path in sorted(SCENES.glob("*.toml")):
+        doc = tomllib.loads(path.read_text())
+        for body in ("body1", "body2"):
+            surface = doc[body].get("surface", {})
+            if surface.get("kind", "gaussian") == "gaussian" and doc[body].get("Rq_um", 1):
+                assert {"corr_x_um", "corr_y_um"} <= set(surface), (path.name, body)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_cycle import SMALL, _scene
+from helpers import SMALL, gear_scene
 
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle
@@ -29,7 +29,7 @@ def test_streamed_stresses_on_uneven_slabs(tmp_path):
 
     comm = MPI.COMM_WORLD
     extra = SMALL.replace("n = 32", "n = 33").replace("layers = 4", "layers = 5")
-    study = contact_study(load_scene(_scene(tmp_path, extra=extra)))
+    study = contact_study(load_scene(gear_scene(tmp_path, extra=extra)))
     cyc = PositionCycle(study, 3, comm=comm)
     counts = cyc.slab.counts
     m, ny = cyc.steps, cyc.grid.ny

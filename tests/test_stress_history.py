@@ -9,8 +9,7 @@ import tomllib
 
 import numpy as np
 import pytest
-from conftest import SCENES
-from test_life import tiny_doc
+from helpers import SCENES, tiny_doc
 
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle

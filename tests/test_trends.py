@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import replace
 
 import pytest
-from conftest import read_table
+from helpers import read_table
 
 from micropit_hpc.trends import FlankPoint, trend2, trend3, trend4, trend5, trend6
 

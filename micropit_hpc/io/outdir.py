@@ -1,8 +1,14 @@
-"""One run per output folder (docs/outputs.md "The output folder").
+"""One run per output folder (docs/jobs.md "The output folder").
 
-* A lock file ``OUT/.micropit.lock`` (host, pid, batch job id, start time) is created
-  exclusively by rank 0 and refreshed every :data:`HEARTBEAT_S` s while the run lives. A
-  second run into the folder is refused naming the holder. A lock is *stale* (taken over, with
+* A lock: rank 0 opens ``OUT/.micropit.lock`` and holds an exclusive kernel lock on it
+  (``flock``) for as long as its process lives, with the holder written inside (host, pid,
+  batch job id, start time). The kernel releases the lock the moment the holder's process ends,
+  however it ends (SIGKILL, ``MPI_Abort``, a node's process killed inside the checkpoint
+  write): a restart right after a kill is accepted, with no liveness guess (a zombie or an
+  exiting rank still answers ``kill(pid, 0)``). A second run into the folder is refused naming
+  the holder, after waiting up to :data:`LOCK_WAIT_S` s for a holder that is just exiting.
+  Where the file system has no ``flock`` (some parallel file systems), the lock falls back to a
+  file created exclusively and refreshed every :data:`HEARTBEAT_S` s, *stale* (taken over, with
   a message) when its process is gone (same host), when it was left by this batch job before a
   requeue or by the job named in ``MICROPIT_PREVIOUS_JOB`` (the PBS chain), or when it was not
   refreshed for :data:`STALE_S` s (a dead run on another host).
@@ -18,6 +24,8 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import errno
+import fcntl
 import hashlib
 import json
 import os
@@ -32,12 +40,23 @@ from micropit_hpc.errors import MicropitError
 from micropit_hpc.parallel.share import raise_agreed
 
 LOCK = ".micropit.lock"
+#: The run's own exit code, written by rank 0 as the run ends (0: finished, 85: checkpointed
+#: and stopped; before that ``signal N`` when a stop signal arrived) and removed when the next
+#: run starts: a job script reads it when the launcher's exit code says less (mpirun exits 1
+#: after a SIGTERM to the whole job, whatever the ranks did, and kills ranks that have not
+#: reached the next block boundary in time).
+EXIT_RECORD = ".micropit.exit"
 MANIFEST = "manifest.json"
 STAGING = ".publish"
 #: What a run leaves in its folder (besides ``checkpoints/``): refused or cleared by a fresh run.
 RUN_FILES = ("summary.csv", "results.h5", "results.xdmf", MANIFEST)
 HEARTBEAT_S = 30.0
 STALE_S = 600.0
+#: Seconds a run waits for the lock of a holder that may be exiting (a killed job's rank 0
+#: still closing its files) before it refuses the folder.
+LOCK_WAIT_S = 10.0
+#: flock errors that mean "this file system has no flock": the fallback lock is used.
+_NO_FLOCK = (errno.ENOLCK, errno.EOPNOTSUPP, errno.ENOSYS, errno.EINVAL)
 JOB_VARS = ("SLURM_JOB_ID", "PBS_JOBID", "LSB_JOBID")
 
 
@@ -94,16 +113,85 @@ def stale_reason(info: dict, age_s: float) -> str | None:
 class OutputLock:
     """The lock of an output folder, held by rank 0 (see the module docstring)."""
 
-    def __init__(self, out: Path, log: Callable[[str], None] = lambda s: None):
+    def __init__(self, out: Path, log: Callable[[str], None] = lambda s: None,
+                 wait_s: float | None = None):
         self.path = Path(out) / LOCK
         self.log = log
+        self.wait_s = LOCK_WAIT_S if wait_s is None else wait_s
+        self._fd: int | None = None        # the flock'ed file, open while the run lives
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
 
-    def acquire(self) -> None:
-        info = {"host": socket.gethostname(), "pid": os.getpid(),
+    def _info(self) -> dict:
+        return {"host": socket.gethostname(), "pid": os.getpid(),
                 "pid_start": _start_time(os.getpid()), "job": _job_id(),
                 "started_utc": _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")}
+
+    def _holder(self) -> str:
+        try:
+            info = json.loads(self.path.read_text())
+        except (OSError, ValueError):
+            info = None
+        if not isinstance(info, dict):
+            return "holder not recorded yet"
+        return ", ".join(f"{k} {info[k]}" for k in ("host", "pid", "job", "started_utc")
+                         if info.get(k)) or "holder not recorded"
+
+    def _in_use(self) -> MicropitError:
+        return MicropitError(
+            f"--out {self.path.parent} is in use by another run ({self._holder()}; lock file "
+            f"{self.path}, held by that run's process): wait for it or use another --out")
+
+    def acquire(self) -> None:
+        """Take the folder's lock or raise :class:`MicropitError` naming the holder."""
+        deadline = time.monotonic() + self.wait_s
+        said = False
+        while True:
+            try:
+                fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o666)
+            except OSError as e:
+                raise MicropitError(f"cannot create the lock file {self.path}: "
+                                    f"{e.strerror or e}") from None
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                os.close(fd)
+                if time.monotonic() >= deadline:
+                    raise self._in_use() from None
+                if not said:
+                    self.log(f"waiting up to {self.wait_s:g} s for the lock {self.path} "
+                             f"({self._holder()})")
+                    said = True
+                time.sleep(0.1)
+                continue
+            except OSError as e:
+                os.close(fd)
+                if e.errno in _NO_FLOCK:
+                    self.log(f"the file system of {self.path} has no flock ({e.strerror}): "
+                             f"a lock file with a heartbeat instead")
+                    self._acquire_file()
+                    return
+                raise MicropitError(f"cannot lock {self.path}: {e.strerror or e}") from None
+            # locked; but a holder that just released may have unlinked the file we opened:
+            # the lock counts only on the file the path names now
+            try:
+                same = os.path.samestat(os.fstat(fd), os.stat(self.path))
+            except FileNotFoundError:
+                same = False
+            if not same:
+                os.close(fd)
+                continue
+            break
+        previous = os.fstat(fd).st_size > 0
+        if previous:
+            self.log(f"the lock {self.path} of an earlier run ({self._holder()}) was released "
+                     f"when its process ended: taking it")
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, (json.dumps(self._info()) + "\n").encode(), 0)
+        self._fd = fd
+
+    # ---- the fallback lock (no flock): created exclusively, refreshed, stale by rules -----------
+    def _acquire_file(self) -> None:
         for _attempt in range(3):
             try:
                 fd = os.open(self.path, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666)
@@ -114,7 +202,7 @@ class OutputLock:
                 raise MicropitError(f"cannot create the lock file {self.path}: "
                                     f"{e.strerror or e}") from None
             with os.fdopen(fd, "w") as fh:
-                json.dump(info, fh)
+                json.dump(self._info(), fh)
                 fh.write("\n")
             self._thread = threading.Thread(target=self._beat, daemon=True,
                                             name="micropit-lock")
@@ -137,12 +225,10 @@ class OutputLock:
             info = {}
         why = stale_reason(info, age) if info else "it is not a micropit lock file"
         if why is None:
-            holder = ", ".join(f"{k} {info[k]}" for k in ("host", "pid", "job", "started_utc")
-                               if info.get(k))
             raise MicropitError(
-                f"--out {self.path.parent} is in use by another run ({holder}; lock file "
-                f"{self.path}): wait for it, use another --out, or, if no run uses this folder "
-                f"any more, remove the lock file")
+                f"--out {self.path.parent} is in use by another run ({self._holder()}; lock "
+                f"file {self.path}): wait for it, use another --out, or, if no run uses this "
+                f"folder any more, remove the lock file")
         self.log(f"taking over the stale lock {self.path}: {why}")
         self.path.unlink(missing_ok=True)
 
@@ -152,11 +238,48 @@ class OutputLock:
                 os.utime(self.path)
 
     def release(self) -> None:
+        """Remove the lock file and let the lock go (also done by the kernel at any exit)."""
+        if self._fd is not None:
+            self.path.unlink(missing_ok=True)   # while still locked: see acquire()
+            os.close(self._fd)
+            self._fd = None
         self._stop.set()
         if self._thread is not None:
             self._thread.join(timeout=5)
             self._thread = None
             self.path.unlink(missing_ok=True)
+
+
+def check_obstructions(out: Path) -> None:
+    """Refuse, before the first block, a folder where something stands in the way of what the
+    run writes: a file where ``checkpoints/`` or the staging folder ``.publish/`` goes, a
+    folder where a result file, the checkpoint pointer or the exit record goes, or a folder
+    (``out`` or ``checkpoints/``) this process cannot write in."""
+    out = Path(out)
+    found = []
+    for name in ("checkpoints", STAGING):
+        if (out / name).exists() and not (out / name).is_dir():
+            found.append(f"{out / name} is a file, where the run makes its folder "
+                         f"{name}/: remove or rename it")
+    for name in (*RUN_FILES, EXIT_RECORD, "checkpoints/LATEST"):
+        if (out / name).is_dir():
+            found.append(f"{out / name} is a folder, where the run writes a file: remove or "
+                         f"rename it")
+    for d in (out, out / "checkpoints"):
+        if d.is_dir() and not os.access(d, os.W_OK | os.X_OK):
+            found.append(f"cannot write in {d}")
+    if found:
+        raise MicropitError(f"--out {out}: " + "; ".join(found))
+
+
+def write_exit_record(out: Path, code: int | str) -> None:
+    """Record the run's exit code in ``out`` (rank 0, after the results or the checkpoint), or
+    ``signal N`` when a stop signal arrives (the run may still be killed before its next
+    checkpoint: the last one then stands)."""
+    from micropit_hpc.io.atomic import write_text_atomic
+
+    text = f"{int(code)}" if isinstance(code, int) else str(code)
+    write_text_atomic(Path(out) / EXIT_RECORD, text + "\n")
 
 
 def run_leftovers(out: Path) -> list[str]:
@@ -192,6 +315,8 @@ def prepare(out: Path, comm, *, restart: bool, overwrite: bool,
                 raise MicropitError(f"cannot create --out {out}: {e.strerror or e}") from None
             lock = OutputLock(out, log)
             lock.acquire()
+            check_obstructions(out)
+            (out / EXIT_RECORD).unlink(missing_ok=True)   # the previous run's verdict
             found = run_leftovers(out)
             if found and not restart:
                 if not overwrite:

@@ -53,6 +53,9 @@ class StopControl:
         self.clock = clock
         self.t_start = clock() if t_start is None else float(t_start)
         self._signum = 0
+        #: called with the signal number at the first signal (e.g. to note on disk that a stop
+        #: was asked for, before the ranks may be killed mid-block); errors are ignored
+        self.on_signal: Callable[[int], None] | None = None
         self._previous: dict[int, object] = {}
         if threading.current_thread() is threading.main_thread():
             for s in signals:
@@ -61,6 +64,11 @@ class StopControl:
     def _handler(self, signum, frame):
         if not self._signum:  # the first signal is the one reported
             self._signum = int(signum)
+            if self.on_signal is not None:
+                try:
+                    self.on_signal(int(signum))
+                except Exception:   # a note, never a reason to fail the run
+                    pass
 
     @property
     def installed(self) -> tuple[int, ...]:
