@@ -180,7 +180,7 @@ def test_restriction_keeps_the_mean_and_prolongation_keeps_bounds_and_caps():
     field's bounds, and between two capped points is the cap itself (a mean of equal values)."""
     from micropit_hpc.lubrication.dry import prolong, restrict
 
-    g, gap0 = _rough(4)
+    g, gap0 = rough_gap(4)
     c = restrict(gap0)
     assert c.shape == (g.nx // 2, g.ny // 2)
     bound = 8 * np.finfo(float).eps * np.abs(gap0).sum() / gap0.size
@@ -213,7 +213,7 @@ def test_coarse_to_fine_start_gives_the_single_level_answer_in_fewer_fine_iterat
     single-level solve (coarsest = 0) end on the same yielded set, pressures within 1e-7 p_lim
     (both meet the conditions at tol = 1e-10: the criterion of the inexact set search above),
     the load held exactly; and the started solve takes fewer iterations on the 128² grid."""
-    g, gap0 = _rough(seed)
+    g, gap0 = rough_gap(seed)
     hs = ElasticHalfSpaces(g, E_PRIME)
     P = 1.0e9
     p_lim = 0.45 * solve_dry_contact(gap0, hs, P, tol=TOL, max_iter=MAX_ITER).pressure.max()
@@ -257,7 +257,7 @@ def test_directions_kept_conjugate_through_entries_give_the_reset_answer(p_lim_s
     small smooth one: that is measured in docs/performance.md, not asserted here.)"""
     from micropit_hpc.lubrication import dry
 
-    g, gap0 = _rough(6)
+    g, gap0 = rough_gap(6)
     hs = ElasticHalfSpaces(g, E_PRIME)
     P = 1.0e9
     peak = solve_dry_contact(gap0, hs, P, tol=TOL, max_iter=MAX_ITER).pressure.max()
