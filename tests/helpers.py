@@ -251,3 +251,45 @@ def results_differ(a: Path, b: Path) -> list[str]:
                 out.append(n)
         assert len(names) > 30
     return out
+
+
+def _solver() -> dict:
+    from micropit_hpc.scene import LubricationSpec
+
+    return {"tol": LubricationSpec().tol, "max_iter": LubricationSpec().max_iter}
+
+
+#: The scene's contact-solver settings (lubrication.tolerance and max_iterations).
+SOLVER = _solver()
+
+
+def mixed_settings(eta0: float, alpha: float, p_lim: float = math.inf, **lubrication) -> dict:
+    """The mixed model's settings: the scene's [lubrication] defaults (or ``lubrication``),
+    an oil of η0 and α with Eyring stress 5 MPa, and the pressure cap."""
+    from micropit_hpc.scene import Lubricant, LubricationSpec
+
+    return {"lubrication": LubricationSpec(**lubrication),
+            "lubricant": Lubricant(eta0=eta0, alpha_pv=alpha, tau0=5e6), "p_lim": p_lim}
+
+
+def random_pair(n=64, seed=7):
+    """Two band-limited random surfaces of R_q 0.3 µm on a 0.3 mm window: (grid, [z1, z2])."""
+    from micropit_hpc.spectral import Grid
+
+    g = Grid(n, n, 3e-4, 3e-4)
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(2):
+        s = np.fft.rfft2(rng.standard_normal(g.shape)) * np.exp(-(g.kappa * 1.5e-5) ** 2)
+        z = np.fft.irfft2(s, s=g.shape)
+        out.append((z - z.mean()) * 0.3e-6 / z.std())
+    return g, out
+
+
+def mixed_model(g, h_mean, eta0=0.05, S=0.3):
+    """The mixed model of a line contact at slide–roll ratio ``S`` on grid ``g``."""
+    from micropit_hpc.lubrication.mixed import MixedLubrication
+
+    u1, u2 = 2.0 * (1 + S / 2), 2.0 * (1 - S / 2)
+    return MixedLubrication(g, geometry="line", load=3e5, R=0.01, b=2e-4, u1=u1, u2=u2,
+                            h_mean=h_mean, E_prime=E_PRIME, **mixed_settings(eta0, 20e-9, 4.2e9))

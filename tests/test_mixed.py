@@ -7,24 +7,13 @@ import math
 
 import numpy as np
 import pytest
+from helpers import E_PRIME, SOLVER, mixed_model, mixed_settings, random_pair
 
 from micropit_hpc.hertz import elliptical_contact
 from micropit_hpc.lubrication import rheology
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
 from micropit_hpc.lubrication.mixed import MixedLubrication, restore_mean, solve_dispersion
-from micropit_hpc.scene import Lubricant, LubricationSpec
 from micropit_hpc.spectral import Grid, rfft_plan
-
-E_PRIME = 210e9 / (1 - 0.3**2)
-#: The scene's contact-solver settings (lubrication.tolerance and max_iterations).
-SOLVER = {"tol": LubricationSpec().tol, "max_iter": LubricationSpec().max_iter}
-
-
-def _settings(eta0: float, alpha: float, p_lim: float = math.inf, **lubrication) -> dict:
-    """The mixed model's settings: the scene's [lubrication] defaults (or ``lubrication``),
-    an oil of η0 and α with Eyring stress 5 MPa, and the pressure cap."""
-    return {"lubrication": LubricationSpec(**lubrication),
-            "lubricant": Lubricant(eta0=eta0, alpha_pv=alpha, tau0=5e6), "p_lim": p_lim}
 
 
 def test_rheology_values():
@@ -63,13 +52,13 @@ def test_v00_pure_rolling_calibration():
     lam = 0.25 * a
     g = Grid(64, 8, 8 * lam, 8 * lam)            # mode 8 along x has wavelength λ
     model = MixedLubrication(g, geometry="elliptical", load=F, R=R, b=a, u1=u, u2=u,
-                             h_mean=1e-6, E_prime=E_PRIME, **_settings(eta0, alpha))
+                             h_mean=1e-6, E_prime=E_PRIME, **mixed_settings(eta0, alpha))
     assert model.moes == pytest.approx((1007.6, 12.05), rel=1e-12)
     _, h_t, _ = model.lubricated_factors(1, 0.5e9, 1e-5)
     assert h_t[8, 0] == pytest.approx(0.739, abs=5e-4)
     printed = MixedLubrication(g, geometry="elliptical", load=F, R=R, b=a, u1=u, u2=u,
                                h_mean=1e-6, E_prime=E_PRIME,
-                               **_settings(eta0, alpha, prefactor=0.8))
+                               **mixed_settings(eta0, alpha, prefactor=0.8))
     assert printed.lubricated_factors(1, 0.5e9, 1e-5)[1][8, 0] == pytest.approx(0.831, abs=1e-3)
 
 
@@ -86,7 +75,7 @@ def test_pure_rolling_clearance_is_the_reduced_roughness():
     r1, r2 = fft.forward(-z1), np.zeros(g.spectral_shape, complex)
     model = MixedLubrication(g, geometry="elliptical", load=F, R=R, b=a, u1=u, u2=u,
                              h_mean=1e-6, E_prime=E_PRIME,
-                             **_settings(eta0, alpha))
+                             **mixed_settings(eta0, alpha))
     sol = model.solve((r1, r2), (r1, r2), 0.5e9, 1e-9)
     assert sol.phi == 0.0
     expected = 1e-6 - 0.739 * z1
@@ -104,7 +93,7 @@ def test_complementary_wave_decays_from_the_inlet():
     for eta in (eta0, 100 * eta0):
         model = MixedLubrication(g, geometry="elliptical", load=F, R=R, b=a, u1=u, u2=u,
                                  h_mean=1e-6, E_prime=E_PRIME,
-                                 **_settings(eta, alpha))
+                                 **mixed_settings(eta, alpha))
         d = [np.abs(model.lubricated_factors(1, 0.5e9, t)[2][1:, 0]) for t in (1e-6, 1e-5, 1e-4)]
         assert np.all(d[0] <= 1.0) and np.all(d[1] <= d[0]) and np.all(d[2] <= d[1])
         assert d[2].min() < 0.9 * d[0].min()
@@ -125,28 +114,11 @@ def test_dispersion_relation_residual_and_branch():
         assert psi.imag.min() >= -1e-9 * np.abs(psi).max()
 
 
-def _random_pair(n=64, seed=7):
-    g = Grid(n, n, 3e-4, 3e-4)
-    rng = np.random.default_rng(seed)
-    out = []
-    for _ in range(2):
-        s = np.fft.rfft2(rng.standard_normal(g.shape)) * np.exp(-(g.kappa * 1.5e-5) ** 2)
-        z = np.fft.irfft2(s, s=g.shape)
-        out.append((z - z.mean()) * 0.3e-6 / z.std())
-    return g, out
-
-
-def _model(g, h_mean, eta0=0.05, S=0.3):
-    u1, u2 = 2.0 * (1 + S / 2), 2.0 * (1 - S / 2)
-    return MixedLubrication(g, geometry="line", load=3e5, R=0.01, b=2e-4, u1=u1, u2=u2,
-                            h_mean=h_mean, E_prime=E_PRIME, **_settings(eta0, 20e-9, 4.2e9))
-
-
 def test_thick_film_has_no_solid_contact():
-    g, (z1, z2) = _random_pair()
+    g, (z1, z2) = random_pair()
     fft = rfft_plan(g.shape)
     r = (fft.forward(-z1), fft.forward(-z2))
-    sol = _model(g, h_mean=3e-6).solve(r, r, 1.0e9, 5e-5)      # Λ = 7
+    sol = mixed_model(g, h_mean=3e-6).solve(r, r, 1.0e9, 5e-5)      # Λ = 7
     assert sol.phi == 0.0 and sol.clearance.min() > 0.0
     assert sol.clearance.mean() == pytest.approx(3e-6, rel=1e-12)
     assert sol.pressure.mean() == pytest.approx(1.0e9, rel=1e-12)
@@ -155,10 +127,10 @@ def test_thick_film_has_no_solid_contact():
 def test_vanishing_film_gives_the_dry_solution():
     """h̄ → 0: the solids carry everything (φ = 1) and pressure and clearance are those of
     the dry contact of the same roughness."""
-    g, (z1, z2) = _random_pair()
+    g, (z1, z2) = random_pair()
     fft = rfft_plan(g.shape)
     r = (fft.forward(-z1), fft.forward(-z2))
-    sol = _model(g, h_mean=1e-12).solve(r, r, 1.0e9, 5e-5)
+    sol = mixed_model(g, h_mean=1e-12).solve(r, r, 1.0e9, 5e-5)
     dry = solve_dry_contact(-(z1 + z2), ElasticHalfSpaces(g, E_PRIME), 1.0e9, p_lim=4.2e9,
                             **SOLVER)
     assert sol.phi == 1.0
@@ -167,17 +139,17 @@ def test_vanishing_film_gives_the_dry_solution():
 
 
 def test_intermediate_film_balances_the_flow():
-    g, (z1, z2) = _random_pair()
+    g, (z1, z2) = random_pair()
     fft = rfft_plan(g.shape)
     r = (fft.forward(-z1), fft.forward(-z2))
     h = 0.35e-6
-    sol = _model(g, h_mean=h).solve(r, r, 1.0e9, 5e-5)
+    sol = mixed_model(g, h_mean=h).solve(r, r, 1.0e9, 5e-5)
     assert 0.0 < sol.phi < 1.0
     c_rho = rheology.density_correction(sol.phi * 1.0e9)
     assert sol.film_mean == pytest.approx(c_rho * h, rel=2e-4)
     assert sol.pressure.mean() == pytest.approx(1.0e9, rel=1e-12)
     assert 0.0 <= sol.pressure.min() and sol.pressure.max() <= 4.2e9
-    thinner = _model(g, h_mean=0.5 * h).solve(r, r, 1.0e9, 5e-5)
+    thinner = mixed_model(g, h_mean=0.5 * h).solve(r, r, 1.0e9, 5e-5)
     assert thinner.phi > sol.phi                 # less film, more load on the asperities
 
 
@@ -191,8 +163,8 @@ def test_restore_mean_is_exact_with_clipping():
 
 def test_cached_lubricated_factors_equal_the_computed_ones():
     """The per-step factor cache returns exactly what lubricated_factors computes."""
-    g, _ = _random_pair()
-    model = _model(g, h_mean=0.35e-6)
+    g, _ = random_pair()
+    model = mixed_model(g, h_mean=0.35e-6)
     h_a, h_t, D = model.lubricated_factors(2, 1.0e9, 5e-5)
     for _ in range(2):                   # the miss, then the hit
         c_a, c_dh, c_D = model.cached_factors(2, 1.0e9, 5e-5)
@@ -205,10 +177,10 @@ def test_cached_lubricated_factors_equal_the_computed_ones():
 def test_warm_start_from_the_last_evaluation_gives_the_same_solution_in_fewer_iterations():
     """A step solved again with the last evaluation's warm starts (root, trial fractions)
     converges in a few iterations to the same pressure and load fraction."""
-    g, (z1, z2) = _random_pair()
+    g, (z1, z2) = random_pair()
     fft = rfft_plan(g.shape)
     r = (fft.forward(-z1), fft.forward(-z2))
-    model = _model(g, h_mean=0.35e-6)
+    model = mixed_model(g, h_mean=0.35e-6)
     warm = {}
     cold = model.solve(r, r, 1.0e9, 5e-5, warm=warm)
     assert 0.0 < cold.phi < 1.0 and set(warm) >= {0.25, "root", "phi"}

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from test_mixed import E_PRIME, SOLVER, _model, _random_pair
+from helpers import E_PRIME, SOLVER, mixed_model, random_pair
 
 from micropit_hpc.lubrication import dry, mixed, rheology
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
@@ -15,7 +15,7 @@ from micropit_hpc.spectral import rfft_plan
 def _solve(h_mean, monkeypatch, coarsest):
     """The mixed solution on a 128² pair with the dry solves' coarse start down to
     ``coarsest`` points (0: none), and the coarse iterations of its dry solves."""
-    g, (z1, z2) = _random_pair(128)
+    g, (z1, z2) = random_pair(128)
     fft = rfft_plan(g.shape)
     r = (fft.forward(-z1), fft.forward(-z2))
     coarse = []
@@ -27,7 +27,7 @@ def _solve(h_mean, monkeypatch, coarsest):
 
     monkeypatch.setattr(dry, "COARSEST", coarsest)
     monkeypatch.setattr(mixed, "solve_dry_contact", counted)
-    return g, (z1, z2), _model(g, h_mean=h_mean).solve(r, r, 1.0e9, 5e-5), sum(coarse)
+    return g, (z1, z2), mixed_model(g, h_mean=h_mean).solve(r, r, 1.0e9, 5e-5), sum(coarse)
 
 
 def test_vanishing_film_with_the_coarse_start_gives_the_dry_solution(monkeypatch):
