@@ -52,8 +52,11 @@ def tiny_doc(slide_roll=(0.0, 0.3), k_lub=(0.0,)):
         "stress": {"layers": 6},
         "wear": {"k_lub_s": list(k_lub)},
         # the life-loop tests check Miner, wear, pits, restarts and invariances, not how finely
-        # the running-in is resolved: the previous default keeps them quick
-        "life": {"cycles_M": 2.0, "block_M": 1.0, "max_splits": 4},
+        # the running-in is resolved: the previous default split and the relaxed wear keep
+        # them quick (the implicit wear has its own tests, test_implicit_wear.py, and the
+        # run tests on scenes/quick.toml run it)
+        "life": {"cycles_M": 2.0, "block_M": 1.0, "max_splits": 4,
+                 "wear_integration": "relaxed"},
     }
 
 

@@ -149,8 +149,9 @@ def _on(profile: np.ndarray, m: int) -> np.ndarray:
 
 def test_a_worn_cosine_converges_with_the_grid_and_polishes():
     """64 → 128 → 256 cells per period, same physical size: the worn profiles (compared on 64
-    cells) differ less and less, the finest two by under 10 % of the wear, and every block
-    lowers the slope."""
+    cells) agree to 2 % of the crest's wear (the contact solver's tolerance sets the floor of
+    their differences, about 1 nm of 229), the crest wear of the finest two within 10 %, and
+    every block lowers the slope."""
     profiles, wear = {}, {}
     for n in (64, 128, 256):
         prof, slopes, _ = _worn_wave(n)
@@ -161,8 +162,7 @@ def test_a_worn_cosine_converges_with_the_grid_and_polishes():
     d1 = np.abs(profiles[128] - profiles[64]).max()
     d2 = np.abs(profiles[256] - profiles[128]).max()
     assert wear[256] > 0.1e-6                        # the crest wore a quarter of its height
-    assert d2 < d1
-    assert d2 < 0.1 * wear[256]
+    assert max(d1, d2) < 0.02 * wear[256]
     assert wear[256] == pytest.approx(wear[128], rel=0.1)
 
 
@@ -177,6 +177,7 @@ def test_the_relaxed_update_wears_a_cosine_by_the_cell_size():
     assert depth[128] < 0.75 * depth[64]
 
 
+@pytest.mark.slow
 def test_a_gear_flank_worn_without_pits_ends_no_steeper(tmp_path):
     """The paper gear at the pitch-side single-pair point (position 3, S = −0.39), k_lub =
     5e-11 s, no fatigue: two blocks of implicit wear lower both flanks' RMS slope."""
@@ -199,3 +200,27 @@ def test_a_gear_flank_worn_without_pits_ends_no_steeper(tmp_path):
         assert rec.Ap == (0.0, 0.0)
         assert all(s <= b for s, b in zip(rec.slope, before, strict=True)), (rec.slope, before)
     assert min(rec.wear_mean) > 0.3e-6
+
+
+@pytest.mark.slow
+def test_a_block_after_a_restart_repeats_the_straight_run():
+    """The implicit wear keeps no state across blocks beyond the life state (its step
+    controller and warm starts begin afresh at each block): block 2 on a fresh cycle from a
+    copy of the state after block 1 repeats the straight run bit for bit."""
+    import copy
+
+    from helpers import tiny_doc
+    doc = tiny_doc(slide_roll=(0.3,), k_lub=(1e-11,))
+    doc["life"]["wear_integration"] = "implicit"
+    scene = scene_from_dict(doc, "tiny.toml")
+    study = contact_study(scene)
+    straight = PositionCycle(study, 1, k_lub=1e-11)
+    a = initial_state(straight)
+    first = run_block(straight, a, scene.life)
+    assert first.wear_cycles > 0 and min(first.wear_mean) > 0
+    b = copy.deepcopy(a)
+    run_block(straight, a, scene.life)
+    run_block(PositionCycle(study, 1, k_lub=1e-11), b, scene.life)
+    for x, y in zip(a.bodies, b.bodies, strict=True):
+        assert np.array_equal(x.heights, y.heights) and np.array_equal(x.damage, y.damage)
+        assert np.array_equal(x.pitted, y.pitted)
