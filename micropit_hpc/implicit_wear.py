@@ -35,6 +35,7 @@ needs, identically on every rank.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
@@ -75,15 +76,18 @@ class ImplicitWear:
 
 
 def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tuple, n: float,
-                   tol: float, max_iter: int = 60, memory: int = MEMORY) -> ImplicitWear:
+                   tol: float, max_iter: int = 60, memory: int = MEMORY,
+                   errors: tuple[type[Exception], ...] = ()) -> ImplicitWear:
     """Solve w = n Δh(w) for both bodies (module docstring).
 
     ``rates(w)``: the wear rates per cycle (a :class:`~micropit_hpc.wear.WearRate` per body) of
     a contact-only load cycle on the surfaces worn by ``w`` (a tuple of depth maps);
     ``start``: the rates on the unworn surfaces (w = 0), already known from the sub-block's
     full load cycle; ``n``: the sub-block's cycles; ``tol``: the residual max |n Δh(w) − w|
-    [m] to reach; ``max_iter``: the most contact-only cycles to spend. Without wear (every
-    rate zero) no contact is solved."""
+    [m] to reach; ``max_iter``: the most contact-only cycles to spend; ``errors``: exceptions
+    of ``rates`` that end the solve unconverged with the best iterate so far (an extrapolated
+    iterate can be a surface whose contact does not converge; the caller shortens the step).
+    Without wear (every rate zero) no contact is solved."""
     shapes = [r.rate.shape for r in start]
     sizes = [int(np.prod(s)) for s in shapes]
 
@@ -119,15 +123,20 @@ def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tupl
             t = t - dX @ gamma
         del xs[:-memory - 1], fs[:-memory - 1]
         x = np.maximum(t, 0.0)                            # wear never adds material
-        last = tuple(rates(unpack(x)))
         it += 1
+        try:
+            last = tuple(rates(unpack(x)))
+        except errors:
+            history.append(math.inf)
+            break
         f = n * pack([r.rate for r in last]) - x
         res = float(np.abs(f).max())
         history.append(res)
         if res < best[0]:
             best = (res, x, last)
     res, x, last = best                                   # the best iterate, if not converged
-    return ImplicitWear(n, unpack(x), tuple(start), last, it, res, res <= tol, tuple(history))
+    return ImplicitWear(n, unpack(x), tuple(start), last, it, res,
+                        res <= tol and history[-1] <= tol, tuple(history))
 
 
 def next_length(n: float, error: float, tol: float, grow: float = 4.0,

@@ -72,6 +72,7 @@ from scipy.ndimage import gaussian_filter
 
 from micropit_hpc.cycle import CycleResult, PositionCycle
 from micropit_hpc.implicit_wear import backward_euler, next_length
+from micropit_hpc.lubrication.dry import ContactError
 from micropit_hpc.parallel.petsc import event
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.pits import detach, shift_columns
@@ -368,7 +369,8 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
                 d + x for d, x in zip(base, w, strict=True))), pits, warm)
 
         with event("implicit_wear"):
-            sol = backward_euler(rates, now, m, tol, max_iter=life.wear_max_iter)
+            sol = backward_euler(rates, now, m, tol, max_iter=life.wear_max_iter,
+                                 errors=(ContactError,))
         spent += sol.iterations
         err = max(sol.error(intact))
         if m > smallest and not sol.converged:

@@ -224,3 +224,28 @@ def test_a_block_after_a_restart_repeats_the_straight_run():
     for x, y in zip(a.bodies, b.bodies, strict=True):
         assert np.array_equal(x.heights, y.heights) and np.array_equal(x.damage, y.damage)
         assert np.array_equal(x.pitted, y.pitted)
+
+
+def test_a_contact_that_fails_on_an_iterate_ends_the_solve_with_the_best_one():
+    """An extrapolated iterate whose contact does not converge (ContactError) ends the solve
+    unconverged, with the best iterate evaluated before it, so the caller can shorten the
+    step; other errors pass through."""
+    from micropit_hpc.lubrication.dry import ContactError
+    rng = np.random.default_rng(5)
+    B = rng.normal(size=(4, 4))
+    a, J = np.array([2e-12, 1e-12, 1e-12, 3e-12]), 40.0 * (B @ B.T + np.eye(4))
+    good = _linear(a, J)
+    calls = []
+
+    def flaky(w):
+        calls.append(1)
+        if len(calls) == 3:                     # the solve's third contact
+            raise ContactError("did not converge")
+        return good(w)
+    start = good((np.zeros(2), np.zeros(2)))
+    sol = backward_euler(flaky, start, 1.0, 1e-22, errors=(ContactError,))
+    assert not sol.converged and len(calls) == 3 and sol.iterations == len(calls)
+    assert sol.history[-1] == math.inf and sol.residual == min(sol.history)
+    with pytest.raises(ContactError):
+        calls.clear()
+        backward_euler(flaky, start, 1.0, 1e-22)
