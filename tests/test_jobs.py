@@ -140,7 +140,9 @@ def job(script, tmp_path, path):
 def test_sigterm_ends_every_job_script_in_a_checkpoint_and_exit_85(tmp_path, script, to):
     """SIGTERM to the script, to its mpirun (after KILL_GRACE_S mpirun passes it on) or to
     the whole process group: a checkpoint, exit 85, and the batch scripts requeue."""
-    path = scene(tmp_path, blocks=40)
+    # long enough that the signal always finds the run busy: mpirun passes it on only after
+    # KILL_GRACE_S, and on an idle machine 40 blocks of this scene took 4 s in all
+    path = scene(tmp_path, blocks=400)
     cmd, env, out, requeue = job(script, tmp_path, path)
     fake = fake_batch_system(tmp_path, env)
     rc, text = start_and_signal(cmd, env, signal.SIGTERM, tmp_path / "job.log", to=to)
