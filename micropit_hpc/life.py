@@ -351,9 +351,7 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
         return max(shape_change(d, keep) / b.rq0 for d, keep, b
                    in zip(maps, intact, bodies, strict=True) if b.rq0 > 0)
 
-    limit, last = life.max_wear_fraction, False
-
-    fallback = 0.0
+    limit, last, fallback = life.max_wear_fraction, False, 0.0
     while n - done > 1e-9 * n:
         if spent >= WEAR_BUDGET * life.wear_max_iter:
             fallback = n - done

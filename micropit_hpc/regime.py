@@ -74,7 +74,7 @@ def block_flags(rec, z_max: float, window_ok: bool = True) -> list[str]:
         flags.append("pits_below_layers")
     if not window_ok:
         flags.append("window")
-    if getattr(rec, "wear_fallback", 0.0) > 0.0:
+    if rec.wear_fallback > 0.0:
         flags.append("wear_unresolved")
     return flags
 

@@ -48,6 +48,7 @@ from micropit_hpc.schema import (
     section_of,
     setting,
 )
+from micropit_hpc.wear import RATE_INTEGRATIONS
 
 DEG = math.pi / 180.0
 MM = 1e-3
@@ -66,8 +67,9 @@ LUBRICATION_MODELS = ("auto", *LEVELS)
 COUNTING = ("sliding", "rainflow")
 #: Time integration of the life (micropit_hpc.life): the adaptive split or the paper's blocks.
 INTEGRATIONS = ("adaptive", "paper")
-#: How the wear of a sub-block is integrated (micropit_hpc.wear, micropit_hpc.implicit_wear).
-WEAR_INTEGRATIONS = ("implicit", "relaxed", "explicit")
+#: How the wear of a sub-block is integrated: implicit (micropit_hpc.implicit_wear), or one of
+#: the integrations of a single rate (micropit_hpc.wear).
+WEAR_INTEGRATIONS = ("implicit", *RATE_INTEGRATIONS)
 
 
 @dataclass(frozen=True)

@@ -48,11 +48,11 @@ import numpy as np
 
 from micropit_hpc.spectral import to_material_frame
 
-__all__ = ["WEAR_INTEGRATIONS", "WearRate", "archard_wear", "solid_weight", "to_material_frame"]
+__all__ = ["RATE_INTEGRATIONS", "WearRate", "archard_wear", "solid_weight", "to_material_frame"]
 
 #: The integrations :meth:`WearRate.depth` does from one rate (module docstring); the default
-#: ``"implicit"`` re-solves the contact (:mod:`micropit_hpc.implicit_wear`).
-WEAR_INTEGRATIONS = ("relaxed", "explicit")
+#: ``life.wear_integration = "implicit"`` re-solves the contact (:mod:`micropit_hpc.implicit_wear`).
+RATE_INTEGRATIONS = ("relaxed", "explicit")
 
 
 @dataclass(frozen=True)
@@ -77,7 +77,7 @@ class WearRate:
             return n * self.rate
         if integration != "relaxed":
             raise ValueError(f"wear integration {integration!r} is not one of "
-                             f"{', '.join(WEAR_INTEGRATIONS)}")
+                             f"{', '.join(RATE_INTEGRATIONS)}")
         x = self.relax * n
         share = np.ones_like(x)
         np.divide(-np.expm1(-x), x, out=share, where=x > 1e-12)

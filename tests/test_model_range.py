@@ -187,6 +187,7 @@ def _record(**kw) -> BlockRecord:
     ({"plastic_share": 0.51}, "plastic"),
     ({"deep_damage": (2e-3, 0.0)}, "deep_layer"),
     ({"pit_depth_max": (0.0, 30e-6)}, "pits_below_layers"),
+    ({"wear_fallback": 0.25}, "wear_unresolved"),
 ])
 def test_each_limit_raises_its_flag_and_one_warning_line(kw, flag):
     inside = _record(Ap=(89.9, 1.0), low_cycle_damage=(0.1, 0.1), low_cycle_pits=(0.1, 0.0),
