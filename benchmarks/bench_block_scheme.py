@@ -1,22 +1,26 @@
-"""A_p against the block length ΔN in both time integrations (docs/life.md, "Two time
-integrations"; docs/performance.md, "Block length and time integration").
+"""A_p against the block length ΔN in both time integrations, the converged default and the
+paper's literal numerics (docs/life.md, "Two time integrations"; docs/performance.md, "Block
+length and time integration").
 
     .venv/bin/python benchmarks/bench_block_scheme.py [--n 64] [--procs 2]
         [--blocks 0.1,0.25,0.5,1] [--cases gear3,mpr] [--out benchmarks/results]
 
-Two work items, k_lub = 0 and 1e-11 s, each with ``life.integration = "paper"`` (one
-evaluation per block on the block's starting surfaces, damage and wear over the whole block,
-then the pit check) and ``"adaptive"`` (blocks split until damage, pits and wear are resolved
-in time), for every ΔN:
+Two work items, k_lub = 0 and 1e-11 s, each with ``life.integration = "adaptive"`` (the
+converged default, which the paper scenes run: blocks split until damage, pits and wear are
+resolved in time, the wear implicit) and ``"paper"`` (their literal twins': one evaluation per
+block on the block's starting surfaces, explicit wear ΔN·Δh and damage over the whole block,
+then the pit check), for every ΔN:
 
 * ``gear3``: the paper's gear (scenes/paper_gear_z23.toml), position 3 (single-pair zone
   below the pitch point, S = −0.39), 3 M cycles, patch 0;
 * ``mpr``: the MPR rig (scenes/paper_mpr.toml), |S| = 0.30, 6 M cycles (the first inspection).
 
 Everything else is the scene's, except the window grid (``--n``, default 64: the MPR scene's
-128² takes ~4× longer per evaluation). Rows (A_p of both bodies at the end, wear, evaluations,
-wall time) go to ``OUT/block_scheme.csv`` as they finish; a re-run skips the rows already
-there. The runs are spread over ``--procs`` processes (one core each).
+128² takes ~4× longer per evaluation). Rows (A_p of both bodies at the end, the wear
+integration that ran, wear, evaluations, wall time) go to ``OUT/block_scheme.csv`` as they
+finish; a re-run skips the rows already there, and refuses a file written with other columns
+(rows from before the wear integration was recorded: move it away to re-measure). The runs are
+spread over ``--procs`` processes (one core each).
 """
 
 from __future__ import annotations
@@ -30,8 +34,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 CASES = {"gear3": ("paper_gear_z23", 3, 3.0), "mpr": ("paper_mpr", 3, 6.0)}
-COLUMNS = ("case", "integration", "k_lub_s", "block_M", "n", "cycles_M", "Ap1_pct", "Ap2_pct",
-           "wear1_um", "wear2_um", "evaluations", "wall_s", "flags")
+COLUMNS = ("case", "integration", "wear", "k_lub_s", "block_M", "n", "cycles_M", "Ap1_pct",
+           "Ap2_pct", "wear1_um", "wear2_um", "evaluations", "wall_s", "flags")
 
 
 def run_one(case: str, integration: str, k_lub: float, block: float, n: int) -> dict:
@@ -55,7 +59,10 @@ def run_one(case: str, integration: str, k_lub: float, block: float, n: int) -> 
         done = rec.cycles
         evals += rec.sub_blocks
     flags = ";".join(block_flags(rec, float(run.cycle.z[-1]))) or "none"
-    return {"case": case, "integration": integration, "k_lub_s": k_lub, "block_M": block,
+    # the paper's integration always wears explicitly (micropit_hpc.life.run_block)
+    wear = "explicit" if integration == "paper" else scene.life.wear_integration
+    return {"case": case, "integration": integration, "wear": wear, "k_lub_s": k_lub,
+            "block_M": block,
             "n": n, "cycles_M": cycles, "Ap1_pct": round(rec.Ap[0], 3),
             "Ap2_pct": round(rec.Ap[1], 3), "wear1_um": round(rec.wear_mean[0] * 1e6, 4),
             "wear2_um": round(rec.wear_mean[1] * 1e6, 4), "evaluations": evals,
@@ -81,13 +88,19 @@ def main(argv=None) -> int:
     have = {}
     if table.is_file():
         with open(table, newline="") as fh:
-            have = {_key(r): r for r in csv.DictReader(fh)}
+            rows = csv.DictReader(fh)
+            if tuple(rows.fieldnames or ()) != COLUMNS:
+                ap.error(f"{table} has the columns {','.join(rows.fieldnames or ())}, not "
+                         f"{','.join(COLUMNS)}: rows of an earlier version; move it away to "
+                         "re-measure")
+            have = {_key(r): r for r in rows}
     jobs = [(c, i, k, float(b), args.n) for c in args.cases.split(",")
-            for i in ("paper", "adaptive") for k in (0.0, 1e-11)
+            for i in ("adaptive", "paper") for k in (0.0, 1e-11)
             for b in args.blocks.split(",")]
     todo = [j for j in jobs if (j[0], j[1], j[2], j[3], j[4]) not in have]
-    # the paper's scheme first (one evaluation per block), then the adaptive one from the
-    # longest blocks down (its cost grows as ΔN shrinks: its floor is ΔN / life.max_splits)
+    # the paper's literal scheme first (one evaluation per block), then the converged default
+    # from the longest blocks down (its cost grows as ΔN shrinks: its floor is
+    # ΔN / life.max_splits)
     todo.sort(key=lambda j: (j[1] != "paper", -j[3], j[0]))
     new_file = not table.is_file()
     with open(table, "a", newline="") as fh, ProcessPoolExecutor(args.procs) as pool:

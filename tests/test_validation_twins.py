@@ -1,0 +1,213 @@
+"""The paper scenes and their literal twins (docs/life.md, "Two time integrations"): every
+scenes/paper_*.toml runs the converged default (adaptive blocks, implicit wear);
+scripts/paper-scene.sh writes its twin, the same scene with ``life.integration = "paper"`` and
+nothing else changed, and refuses a scene it cannot make one from; the validation report
+(postprocess/validation_report.py) decides each trend on the default runs and gives the twin's
+verdict beside it, a missing twin said to be missing. The report is checked on fake MPR run
+folders (summary.csv only; the gear runs are missing)."""
+
+from __future__ import annotations
+
+import csv
+import dataclasses
+import importlib.util
+import shutil
+import subprocess
+
+import pytest
+from helpers import ROOT, SCENES, read_table
+
+from micropit_hpc.scene import load_scene
+from micropit_hpc.study import SUMMARY_COLUMNS
+from micropit_hpc.trends import Verdict
+
+PAPER_SCENES = sorted(p.stem for p in SCENES.glob("paper_*.toml"))
+
+_spec = importlib.util.spec_from_file_location(
+    "validation_report", ROOT / "postprocess" / "validation_report.py")
+report = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(report)
+
+
+def test_there_are_paper_scenes():
+    assert {"paper_mpr", "paper_gear_z23", "paper_gear_z18"} <= set(PAPER_SCENES)
+    assert set(report.MPR_SCENES + report.GEAR_SCENES) == set(PAPER_SCENES)
+
+
+@pytest.mark.parametrize("name", PAPER_SCENES)
+def test_the_paper_scenes_run_the_converged_default(name):
+    """The project's prediction: adaptive blocks with the implicit wear, written out in the
+    line that scripts/paper-scene.sh changes."""
+    scene = load_scene(SCENES / f"{name}.toml")
+    assert (scene.life.integration, scene.life.wear_integration) == ("adaptive", "implicit")
+    lines = (SCENES / f"{name}.toml").read_text().splitlines()
+    assert lines.count('integration = "adaptive"') == 1
+    assert not any(line.startswith("wear_integration") for line in lines)
+
+
+def _script_root(tmp_path):
+    """A copy of scripts/paper-scene.sh and the scenes in a root of their own (the script
+    writes under its root's runs/scenes/)."""
+    (tmp_path / "scripts").mkdir()
+    shutil.copy(ROOT / "scripts" / "paper-scene.sh", tmp_path / "scripts")
+    shutil.copytree(SCENES, tmp_path / "scenes")
+    return tmp_path
+
+
+def _paper_scene(root, name):
+    return subprocess.run(["bash", str(root / "scripts" / "paper-scene.sh"), name],
+                          capture_output=True, text=True, cwd=root, timeout=30)
+
+
+@pytest.mark.parametrize("name", PAPER_SCENES)
+def test_the_twin_is_the_scene_in_the_papers_numerics(tmp_path, name):
+    """runs/scenes/<name>_paper.toml loads, runs `paper` (whose wear is the explicit ΔN·Δh
+    whatever wear_integration says, micropit_hpc.life.run_block) and equals the scene in
+    everything else."""
+    root = _script_root(tmp_path)
+    out = _paper_scene(root, name)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip() == f"runs/scenes/{name}_paper.toml"
+    twin = load_scene(root / out.stdout.strip())
+    scene = load_scene(SCENES / f"{name}.toml")
+    assert twin.life.integration == "paper"
+    assert twin.life != scene.life
+    assert dataclasses.replace(twin, source=scene.source, life=dataclasses.replace(
+        twin.life, integration="adaptive")) == scene
+    assert twin.name == scene.name
+
+
+@pytest.mark.parametrize("text,why", [
+    ('integration = "paper"', "has no 'integration = \"adaptive\"' line"),
+    ("", "has no 'integration = \"adaptive\"' line"),
+    (None, "no scene file"),
+])
+def test_paper_scene_refuses_a_scene_without_the_line(tmp_path, text, why):
+    root = _script_root(tmp_path)
+    path = root / "scenes" / "other.toml"
+    if text is not None:
+        path.write_text((SCENES / "paper_mpr.toml").read_text().replace(
+            'integration = "adaptive"', text))
+    out = _paper_scene(root, "other")
+    assert out.returncode == 1 and out.stdout == ""
+    assert out.stderr.startswith("paper-scene: ") and str(path) in out.stderr
+    assert why in out.stderr
+    assert not (root / "runs" / "scenes" / "other_paper.toml").exists()
+
+
+# ---- the report: the default decides, the twin beside it ----------------------------------------
+def _summary(run, rows):
+    """summary.csv of a run from (S, Lambda, k_lub, cycles, A_p of the roller), every column
+    there (flags `none`)."""
+    run.mkdir(parents=True, exist_ok=True)
+    with open(run / "summary.csv", "w", newline="") as fh:
+        w = csv.DictWriter(fh, SUMMARY_COLUMNS, restval="0")
+        w.writeheader()
+        for i, (s, lam, k, n, ap) in enumerate(rows):
+            for body in (1, 2):
+                w.writerow({"item": i, "position": 1, "S": s, "p0_GPa": 1.1, "Lambda": lam,
+                            "k_lub_s": k, "body": body, "cycles": n, "Ap_pct": ap,
+                            "flags": "none"})
+    return run
+
+
+def _mpr(ap_6m, ap_10m):
+    """Rows of an MPR run: the roller's A_p at |S| = 0.05, 0.15, 0.30, 6 M and 10 M."""
+    return [(-s, 0.176, 0.0, n, a) for n, aps in ((6e6, ap_6m), (10e6, ap_10m))
+            for s, a in zip((0.05, 0.15, 0.3), aps, strict=True)]
+
+
+def _table9(k0, k1):
+    lams = (0.1762, 0.2468, 0.3091)
+    return ([(0.3, lam, 0.0, 6e6, a) for lam, a in zip(lams, k0, strict=True)]
+            + [(0.3, lam, 1e-11, 6e6, a) for lam, a in zip(lams, k1, strict=True)])
+
+
+def _model():
+    m = {(float(r["abs_S"]), float(r["cycles_million"])): float(r["Ap_model_pct"])
+         for r in read_table("mpr_triple_disc_Ap.csv")}
+    return ([m[(s, 6.0)] for s in (0.05, 0.15, 0.3)],
+            [m[(s, 10.0)] for s in (0.05, 0.15, 0.3)])
+
+
+def _fake_runs(runs, suffix, good: bool):
+    """The four MPR runs of one scheme: trend 1 and 7 hold (the paper's model, its Table 9)
+    when ``good``, and fail (A_p falls with sliding; no rise as Λ falls) otherwise."""
+    six, ten = _model()
+    k0, k1 = [7.19, 2.78, 0.24], [0.073, 0.080, 0.056]
+    if not good:
+        six, ten, k0 = six[::-1], ten[::-1], k0[::-1]
+    for base in ("paper_mpr", "paper_mpr_beta30"):
+        _summary(runs / f"{base}{suffix}", _mpr(six, ten))
+    for base in ("paper_mpr_table9", "paper_mpr_table9_beta30"):
+        _summary(runs / f"{base}{suffix}", _table9(k0, k1))
+
+
+def _report(tmp_path) -> tuple[int, str]:
+    rc = report.main(["--runs", str(tmp_path / "runs"), "--out", str(tmp_path / "out")])
+    return rc, (tmp_path / "out" / "README.md").read_text()
+
+
+def _trend_line(text, t):
+    return next(line for line in text.splitlines() if line.startswith(f"* **trend {t}:"))
+
+
+@pytest.mark.parametrize("default_good", [True, False])
+def test_the_report_decides_on_the_default_and_gives_the_twin_beside_it(tmp_path,
+                                                                        default_good):
+    runs = tmp_path / "runs"
+    _fake_runs(runs, "", default_good)
+    _fake_runs(runs, "_paper", not default_good)
+    rc, text = _report(tmp_path)
+    assert rc == 1                                  # the gear runs are missing
+    mine, twin = ("PASS", "FAIL") if default_good else ("FAIL", "PASS")
+    for t in (1, 7):
+        assert _trend_line(text, t).startswith(
+            f"* **trend {t}: {mine}** (converged default; the paper's literal numerics: {twin})")
+    lines = text.splitlines()
+    at = lines.index(_trend_line(text, 1))
+    assert lines[at + 1].startswith("  Converged default: paper_mpr: ")
+    assert lines[at + 2].startswith("  Paper's literal numerics (`_paper` twin): "
+                                    "paper_mpr_paper: ")
+    # the gear runs of both schemes are missing: the default FAILs, the twin is missing
+    assert _trend_line(text, 2).startswith(
+        "* **trend 2: FAIL** (converged default; the paper's literal numerics: missing)")
+    assert "# Results in the converged default" in text
+    assert "# Results in the paper's literal numerics (the `_paper` twins)" in text
+    assert (tmp_path / "out" / "paper_mpr_mpr_comparison.csv").is_file()
+    assert (tmp_path / "out" / "paper_mpr_paper_mpr_comparison.csv").is_file()
+
+
+def _row(text, name):
+    return next(line for line in text.splitlines() if line.startswith(f"| {name} |"))
+
+
+def test_missing_twins_are_said_to_be_missing(tmp_path):
+    _fake_runs(tmp_path / "runs", "", True)
+    rc, text = _report(tmp_path)
+    assert rc == 1
+    for t in (1, 7, 8):
+        line = _trend_line(text, t)
+        assert line.startswith(f"* **trend {t}: PASS** (converged default; the paper's "
+                               "literal numerics: missing)"), line
+    assert "Paper's literal numerics (`_paper` twin): run missing" in text
+    for name in ("paper_mpr_paper", "paper_gear_z23_paper"):
+        assert _row(text, name).split("|")[5].strip() == "missing"
+    assert f"*Missing: {tmp_path / 'runs' / 'paper_mpr_paper'}/summary.csv.*" in text
+    assert "trend 1: PASS (the paper's literal numerics: missing) — paper_mpr_beta30:" in text
+
+
+def test_the_verdict_is_the_defaults():
+    """Every trend passing on the default passes the validation whatever the twin says; one
+    failing on the default fails it whatever the twin says."""
+    good = [Verdict(t, True, f"paper_mpr: ok {t}") for t in range(1, 9)]
+    bad_twin = [Verdict(t, False, f"paper_mpr_paper: no {t}") for t in range(1, 9)]
+    lines, passed = report.trend_lines(good, bad_twin)
+    assert passed and sum("**" in line and ": PASS**" in line for line in lines) == 8
+    assert all("numerics: FAIL)" in line for line in lines if line.startswith("* **"))
+    lines, passed = report.trend_lines([*good[:3], Verdict(4, False, "x"), *good[4:]], good)
+    assert not passed and "* **trend 4: FAIL** (converged default; the paper's literal " \
+                          "numerics: PASS)" in "\n".join(lines)
+    lines, passed = report.trend_lines(good, [])
+    assert passed and all("numerics: missing)" in line for line in lines
+                          if line.startswith("* **"))
