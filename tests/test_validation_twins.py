@@ -211,3 +211,67 @@ def test_the_verdict_is_the_defaults():
     lines, passed = report.trend_lines(good, [])
     assert passed and all("numerics: missing)" in line for line in lines
                           if line.startswith("* **"))
+
+
+# ---- A_p against ΔN, both schemes ---------------------------------------------------------------
+def _bench():
+    spec = importlib.util.spec_from_file_location(
+        "bench_block_scheme", ROOT / "benchmarks" / "bench_block_scheme.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+class _Inline:
+    """A process pool that runs each job at once (futures already done)."""
+
+    def __init__(self, procs):
+        pass
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        return False
+
+    def submit(self, fn, *args):
+        from concurrent.futures import Future
+        f = Future()
+        f.set_result(fn(*args))
+        return f
+
+
+def test_bench_block_scheme_covers_both_schemes_and_refuses_old_rows(tmp_path, capsys,
+                                                                       monkeypatch):
+    """Both integrations at ΔN ∈ {0.1, 0.25, 0.5, 1} M, k_lub 0 and 1e-11 s, for both cases
+    (the runs faked), each row naming the wear integration that ran; a file of an earlier
+    version, whose rows do not say it, is refused rather than taken for new rows."""
+    bench = _bench()
+    done = []
+
+    def fake(case, integration, k_lub, block, n):
+        done.append((case, integration, k_lub, block, n))
+        return dict.fromkeys(bench.COLUMNS, 0) | {
+            "case": case, "integration": integration, "k_lub_s": k_lub, "block_M": block,
+            "n": n, "wear": "explicit" if integration == "paper" else "implicit"}
+
+    monkeypatch.setattr(bench, "run_one", fake)
+    monkeypatch.setattr(bench, "ProcessPoolExecutor", _Inline)
+    assert bench.main(["--out", str(tmp_path)]) == 0
+    with open(tmp_path / "block_scheme.csv", newline="") as fh:
+        rows = list(csv.DictReader(fh))
+    assert len(rows) == len(done) == 32
+    assert {(r["case"], r["integration"], r["wear"]) for r in rows} == {
+        (c, "adaptive", "implicit") for c in ("gear3", "mpr")} | {
+        (c, "paper", "explicit") for c in ("gear3", "mpr")}
+    assert sorted({float(r["block_M"]) for r in rows}) == [0.1, 0.25, 0.5, 1.0]
+    assert bench.main(["--out", str(tmp_path)]) == 0 and len(done) == 32    # nothing new
+    old = tmp_path / "old" / "block_scheme.csv"
+    old.parent.mkdir()
+    old.write_text("case,integration,k_lub_s,block_M,n,cycles_M,Ap1_pct,Ap2_pct,wear1_um,"
+                   "wear2_um,evaluations,wall_s,flags\n")
+    with pytest.raises(SystemExit) as e:
+        bench.main(["--out", str(old.parent)])
+    assert e.value.code == 2 and len(done) == 32
+    err = capsys.readouterr().err
+    assert str(old) in err and "move it away" in err
