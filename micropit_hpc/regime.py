@@ -151,7 +151,8 @@ def item_list(ids: Sequence[int], show: int = 12) -> str:
 class RangeWarnings:
     """The run log's warnings after each block (a :class:`~micropit_hpc.runner.Handler`):
     once per item and limit, a block whose adaptive split stopped at ``life.max_splits``
-    before its wear or pit limit was met; and the block's one line on the model's range
+    before its wear or pit limit was met (in the paper's integration, which does not split, a
+    block that went past them); and the block's one line on the model's range
     (:func:`block_warning`). ``log`` prints on rank 0."""
 
     def __init__(self, life, log):
@@ -181,11 +182,16 @@ class RangeWarnings:
             if over:
                 self.warned[name].update(over)
                 worst = max(over, key=over.get)
+                if self.life.integration == "paper":     # no split: whole blocks of ΔN
+                    advice = ("the paper's literal scheme does not split its blocks "
+                              "(life.integration = \"paper\"): its result depends on "
+                              "life.block_M (docs/life.md, \"Two time integrations\")")
+                else:
+                    advice = (f"the split stopped at life.max_splits = {self.life.max_splits}. "
+                              f"Raise max_splits (or lower life.block_M) {why} (docs/life.md)")
                 self.log(f"warning: block {k}, {item_list(sorted(over))}: "
                          f"{did.format(f'{scale * over[worst]:.3g}')} (item {worst}), above "
-                         f"{key} = {limit:g}; the split stopped at life.max_splits = "
-                         f"{self.life.max_splits}. Raise max_splits (or lower life.block_M) "
-                         f"{why} (docs/life.md)")
+                         f"{key} = {limit:g}; {advice}")
         st = self.study
         line = block_warning(k, {iid: r[-1] for iid, r in records.items() if r}, st.z_max,
                              not st.window_problems)

@@ -25,7 +25,13 @@ from micropit_hpc.life import (
     run_block,
 )
 from micropit_hpc.plan import WorkItem, window_grid
-from micropit_hpc.regime import LIMITS, block_flags, block_warning, window_problems
+from micropit_hpc.regime import (
+    LIMITS,
+    RangeWarnings,
+    block_flags,
+    block_warning,
+    window_problems,
+)
 from micropit_hpc.scene import FatigueSpec, LifeSpec, scene_from_dict
 from micropit_hpc.study import ItemRun
 
@@ -174,6 +180,23 @@ def _record(**kw) -> BlockRecord:
                 Rq=(1e-6, 1e-6), n_micro=(1.0, 1.0))
     base.update(kw)
     return BlockRecord(**base)
+
+
+@pytest.mark.parametrize("integration", ["adaptive", "paper"])
+def test_a_block_past_the_split_limits_is_told_how_its_scheme_stands(integration):
+    """A block whose wear or pit step exceeds its limit: in the adaptive integration the split
+    stopped at max_splits (raise it); the paper's literal scheme (the `_paper` twins) never
+    splits, and is not told to raise max_splits."""
+    said = []
+    warn = RangeWarnings(LifeSpec(integration=integration), said.append)
+    warn.start(type("Study", (), {"z_max": 25e-6, "window_problems": []})(), 1, 0)
+    warn.block(1, 1, {0: [_record(wear_step=0.5, pit_step=0.2)]})
+    assert len(said) == 2 and all(s.startswith("warning: block 1, item 0: one sub-block")
+                                  for s in said)
+    if integration == "paper":
+        assert all("does not split its blocks" in s and "max_splits" not in s for s in said)
+    else:
+        assert all("the split stopped at life.max_splits = 64" in s for s in said)
 
 
 @pytest.mark.parametrize("kw,flag", [
