@@ -16,10 +16,20 @@ cell's compliance. Only the contact is solved inside the iteration (no stresses,
 The fixed point is solved by Anderson acceleration (Walker & Ni, SIAM J. Numer. Anal. 49 (2011)
 1715, type II with memory ``memory``) of the map w ↦ n Δh(w). On its own that map diverges on
 stiff spots (|n ∂Δh/∂w| ≫ 1); Anderson's least-squares step, a secant method over the last
-iterates (a GMRES on the linearised problem), converges on it. A diagonal preconditioner from
-the cell-local relief rate ρ (:attr:`~micropit_hpc.wear.WearRate.relax`) was measured to slow it:
-it over-damps the spot-scale and plastic modes (docs/life.md, "Implicit wear"). Worn depths
-never go negative (the iterate is clipped at 0). The iteration stops when the residual
+iterates (a GMRES on the linearised problem), converges on it, but slowly once n|∂Δh/∂w| is in
+the hundreds. It is therefore applied to the preconditioned residual M⁻¹(n Δh(w) − w) with the
+elastic, spot-scale model of the relief (:class:`SpectralRelief`): wearing a spot in solid
+contact by δ lowers its pressure by the half-spaces' stiffness S δ (Ŝ = E'κ/4 per mode,
+:attr:`~micropit_hpc.lubrication.dry.ElasticHalfSpaces.stiffness`), so ∂Δh/∂w ≈ −√D S √D with
+D the solid Archard coefficient per cycle times the share of the cycle a point spends in solid
+contact (:attr:`~micropit_hpc.wear.WearRate.relax` × K₀), and M = I + θ n √D S √D, solved by
+conjugate gradients with FFTs. A cell-diagonal M (K₀⁻¹ in place of S) was measured to slow the
+iteration: it over-damps the spot-scale and plastic modes; the spectral one does less, and θ
+(:data:`RELIEF_SHARE`) < 1 leaves room for the plastic points, which are not relieved, and for
+the worn counterface, whose relief the rate map of one body does not see (docs/life.md,
+"Implicit wear"). Worn depths never go negative (the iterate is clipped at 0). A ``guess``
+(the caller's: the last step's worn depth, scaled to this step) replaces the explicit first
+iterate n Δh(0). The iteration stops when the residual
 max |n Δh(w) − w| is below ``tol`` (a length; the life loop states it relative to R_q). The
 rate must be a continuous function of the worn depth for the fixed point to exist: with the
 tenfold step of the wear coefficient at the edge of solid contact a point at the edge has no
@@ -41,10 +51,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ImplicitWear", "backward_euler", "next_length"]
+__all__ = ["ImplicitWear", "SpectralRelief", "backward_euler", "next_length"]
 
 #: Past iterates the Anderson least-squares step combines.
 MEMORY = 10
+
+#: θ, the share of the elastic relief model that the preconditioner uses (module docstring;
+#: measured in docs/life.md, "Implicit wear": 0.1–0.5 all converge, 1 and above over-damp).
+RELIEF_SHARE = 0.25
+
+#: Relative residual and the most iterations of the preconditioner's conjugate gradients.
+CG_TOL, CG_MAX_ITER = 1e-3, 200
 
 
 @dataclass(frozen=True)
@@ -75,9 +92,55 @@ class ImplicitWear:
         return tuple(out)
 
 
+class SpectralRelief:
+    """The preconditioner M = I + θ n √D S √D of the implicit wear (module docstring) on a
+    periodic grid of ``shape``: ``stiffness`` the half-spaces' Ŝ per mode of the real FFT
+    (shape (nx, ny//2+1), 0 at the mean mode: a uniform wear relieves nothing), ``K0`` their
+    cell self-compliance [m/Pa], with which :attr:`~micropit_hpc.wear.WearRate.relax` [1/cycle]
+    gives D = ρ K₀ [m/(Pa cycle)], and ``share`` θ."""
+
+    def __init__(self, stiffness: np.ndarray, K0: float, shape: tuple[int, int],
+                 share: float = RELIEF_SHARE):
+        self.stiffness, self.K0, self.shape, self.share = stiffness, float(K0), shape, share
+
+    def _apply(self, d: np.ndarray, n: float, v: np.ndarray) -> np.ndarray:
+        return v + n * d * np.fft.irfft2(self.stiffness * np.fft.rfft2(d * v), s=self.shape)
+
+    def solve(self, rates: Sequence, n: float) -> Callable[[tuple], tuple]:
+        """M⁻¹ for a step of ``n`` cycles with the relief of ``rates`` (one
+        :class:`~micropit_hpc.wear.WearRate` per body): a function of the residual maps."""
+        roots = [np.sqrt(np.maximum(self.share * self.K0 * r.relax, 0.0)) for r in rates]
+
+        def inverse(maps: tuple) -> tuple:
+            return tuple(self._cg(d, n, f) if d.any() else f
+                         for d, f in zip(roots, maps, strict=True))
+        return inverse
+
+    def _cg(self, d: np.ndarray, n: float, b: np.ndarray) -> np.ndarray:
+        """Conjugate gradients on M z = b (M symmetric positive definite), from z = b."""
+        norm = float(np.sqrt(np.vdot(b, b)))
+        if norm == 0.0:
+            return b
+        z = b.copy()
+        r = b - self._apply(d, n, z)
+        p, rr = r.copy(), float(np.vdot(r, r))
+        for _ in range(CG_MAX_ITER):
+            if math.sqrt(rr) <= CG_TOL * norm:
+                break
+            q = self._apply(d, n, p)
+            alpha = rr / float(np.vdot(p, q))
+            z += alpha * p
+            r -= alpha * q
+            rr, last = float(np.vdot(r, r)), rr
+            p = r + (rr / last) * p
+        return z
+
+
 def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tuple, n: float,
                    tol: float, max_iter: int = 60, memory: int = MEMORY,
-                   errors: tuple[type[Exception], ...] = ()) -> ImplicitWear:
+                   errors: tuple[type[Exception], ...] = (),
+                   relief: SpectralRelief | None = None,
+                   guess: tuple[np.ndarray, ...] | None = None) -> ImplicitWear:
     """Solve w = n Δh(w) for both bodies (module docstring).
 
     ``rates(w)``: the wear rates per cycle (a :class:`~micropit_hpc.wear.WearRate` per body) of
@@ -86,7 +149,10 @@ def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tupl
     full load cycle; ``n``: the sub-block's cycles; ``tol``: the residual max |n Δh(w) − w|
     [m] to reach; ``max_iter``: the most contact-only cycles to spend; ``errors``: exceptions
     of ``rates`` that end the solve unconverged with the best iterate so far (an extrapolated
-    iterate can be a surface whose contact does not converge; the caller shortens the step).
+    iterate can be a surface whose contact does not converge; the caller shortens the step);
+    ``relief``: the preconditioner (None: plain Anderson); ``guess``: the first iterate in
+    place of the explicit n Δh(0) (the iteration goes on from it; measured: from the last
+    step's depth it saves about half the iterations, though its residual can exceed |n Δh(0)|).
     Without wear (every rate zero) no contact is solved."""
     shapes = [r.rate.shape for r in start]
     sizes = [int(np.prod(s)) for s in shapes]
@@ -108,12 +174,29 @@ def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tupl
     x = np.zeros_like(g)
     f = g - x
     last = tuple(start)
-    xs, fs = [], []          # values n Δh(x) of the map and residuals
+    xs, fs = [], []          # iterates advanced by the preconditioned residual, and the latter
     it, res = 0, float(np.abs(f).max())
     history = [res]
     best = (res, x, last)
+    inverse = relief.solve(start, n) if relief is not None else None
+    if guess is not None and res > tol and max_iter > 0:
+        x_g = np.maximum(pack(guess), 0.0)
+        it += 1
+        try:
+            last_g = tuple(rates(unpack(x_g)))
+        except errors:
+            history.append(math.inf)
+        else:
+            x, last = x_g, last_g
+            f = n * pack([r.rate for r in last]) - x
+            res = float(np.abs(f).max())
+            history.append(res)
+            if res < best[0]:
+                best = (res, x, last)
     while res > tol and it < max_iter:
-        t = x + f                                         # n Δh(x)
+        if inverse is not None:
+            f = pack(inverse(unpack(f)))
+        t = x + f                                         # x + M⁻¹ (n Δh(x) − x)
         xs.append(t)
         fs.append(f)
         if len(fs) > 1:

@@ -71,7 +71,7 @@ import numpy as np
 from scipy.ndimage import gaussian_filter
 
 from micropit_hpc.cycle import CycleResult, PositionCycle
-from micropit_hpc.implicit_wear import backward_euler, next_length
+from micropit_hpc.implicit_wear import SpectralRelief, backward_euler, next_length
 from micropit_hpc.lubrication.dry import ContactError
 from micropit_hpc.parallel.petsc import event
 from micropit_hpc.parallel.slab import Slab
@@ -291,8 +291,10 @@ def _worn(surfaces: tuple[Topography, Topography], state: LifeState,
 class WearSteps:
     """The implicit wear of one sub-block (:func:`implicit_sub_block`): its cycles, the worn
     depth of each body over them [m], the next wear step the controller proposes, the
-    contact-only load cycles spent, and the largest residual of an accepted step over R_q
-    (above ``life.wear_tol`` where a step at the smallest length still did not converge)."""
+    contact-only load cycles spent, the largest residual of an accepted step over R_q
+    (above ``life.wear_tol`` where a step at the smallest length still did not converge), the
+    step length the block's steps stay below, the cycles integrated by the relaxed fallback,
+    and the last accepted step (its cycles and worn depths: the next step's first iterate)."""
 
     cycles: float
     depth: tuple[np.ndarray, np.ndarray]
@@ -301,6 +303,7 @@ class WearSteps:
     residual: float
     cap: float = math.inf
     fallback: float = 0.0
+    previous: tuple | None = None
 
 
 #: The contact-only load cycles one sub-block's implicit wear may spend, in units of
@@ -312,12 +315,19 @@ WEAR_BUDGET = 8
 #: that does not converge is halved down to it, and accepted there.
 MIN_WEAR_STEP = 1.0 / 16.0
 
+#: After a step whose solve did not converge the block's steps stay below three quarters of
+#: it; a step whose solve took more than a third of ``life.wear_max_iter`` contact cycles caps
+#: them at its own length (longer steps cost more cycles per cycle integrated), and one that
+#: took fewer than a sixth lets the cap grow by this factor (a cap for the rest of the block
+#: held the running-in's short steps long after the surfaces had run in; docs/life.md).
+CAP_GROWTH = 1.25
+
 
 def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResult,
                        surfaces: tuple[Topography, Topography],
                        pits: tuple[np.ndarray, np.ndarray] | None, warm: dict, n: float,
                        proposal: float | None, life: LifeSpec,
-                       cap: float = math.inf) -> WearSteps:
+                       cap: float = math.inf, previous: tuple | None = None) -> WearSteps:
     """The implicit wear of the next sub-block (``life.wear_integration = "implicit"``,
     :mod:`micropit_hpc.implicit_wear`) of at most ``n`` cycles (the damage and pit limits,
     :func:`sub_block_cycles`): backward-Euler steps over contact-only load cycles on the worn
@@ -330,7 +340,10 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
     it is accepted. The sub-block ends early, after at least ΔN/``life.max_splits`` cycles, once
     its wear has changed a surface's shape by ``life.max_wear_fraction`` × R_q
     (:func:`shape_change`): the damage of the next sub-block is then evaluated on the run-in
-    surfaces. Collective (the contact)."""
+    surfaces. Each solve is preconditioned by the half-spaces' elastic relief
+    (:class:`~micropit_hpc.implicit_wear.SpectralRelief`) and starts from the ``previous``
+    accepted step's worn depth scaled to its length (the last sub-block's, None: the explicit
+    step). Collective (the contact)."""
     bodies = state.bodies
     intact = [~b.pitted for b in bodies]
     rq = min((b.rq0 for b in bodies if b.rq0 > 0), default=0.0)
@@ -352,6 +365,8 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
                    in zip(maps, intact, bodies, strict=True) if b.rq0 > 0)
 
     limit, last, fallback = life.max_wear_fraction, False, 0.0
+    hs = cycle.half_spaces
+    relief = SpectralRelief(hs.stiffness, hs.self_compliance, cycle.grid.shape)
     while n - done > 1e-9 * n:
         if spent >= WEAR_BUDGET * life.wear_max_iter:
             fallback = n - done
@@ -367,8 +382,10 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
                 d + x for d, x in zip(base, w, strict=True))), pits, warm)
 
         with event("implicit_wear"):
+            guess = None if previous is None else tuple(
+                (m / previous[0]) * w for w in previous[1])
             sol = backward_euler(rates, now, m, tol, max_iter=life.wear_max_iter,
-                                 errors=(ContactError,))
+                                 errors=(ContactError,), relief=relief, guess=guess)
         spent += sol.iterations
         err = max(sol.error(intact))
         if m > smallest and not sol.converged:
@@ -386,14 +403,17 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
             if cut < (1 - 1e-6) * m:
                 h, last = max(cut, smallest), True
                 continue
-        if not sol.converged:                   # accepted at the smallest step: stay there
-            cap = min(cap, m)
+        if not sol.converged or 3 * sol.iterations > life.wear_max_iter:
+            cap = min(cap, m)                   # (not converged: accepted at the smallest step)
+        elif 6 * sol.iterations < life.wear_max_iter:
+            cap *= CAP_GROWTH
         worst = max(worst, sol.residual / rq)
         depth, now, done = after, sol.rate_end, done + m
+        previous = (m, sol.depth)
         h = min(next_length(m, err, accuracy), max(cap, m))
         if done >= floor * (1 - 1e-9) and (last or grown >= limit):
             break
-    return WearSteps(done, depth, h, spent, worst, cap, fallback)
+    return WearSteps(done, depth, h, spent, worst, cap, fallback, previous)
 
 
 #: A column counts in :func:`deep_damage_ratio` when it gathers at least this damage per block:
@@ -447,6 +467,7 @@ def run_block(cycle: PositionCycle, state: LifeState, life: LifeSpec,
     if wear_mode == "implicit" and not implicit:
         wear_mode = "explicit"          # no wear coefficient: every rate is zero
     proposal, cap, wear_cycles, wear_residual, fallback = None, math.inf, 0, 0.0, 0.0
+    previous = None
     while left > 0:
         step = None if on_progress is None else (
             lambda j, d=n_done, s=subs + 1: on_progress(d, total, s, j, cycle.steps))
@@ -456,8 +477,8 @@ def run_block(cycle: PositionCycle, state: LifeState, life: LifeSpec,
         depths = None
         if implicit:
             worn = implicit_sub_block(cycle, state, result, surfaces, pits, warm, n,
-                                      proposal, life, cap)
-            cap = worn.cap
+                                      proposal, life, cap, previous)
+            cap, previous = worn.cap, worn.previous
             n, depths, proposal = worn.cycles, worn.depth, worn.proposal
             wear_cycles += worn.contact_cycles
             wear_residual = max(wear_residual, worn.residual)

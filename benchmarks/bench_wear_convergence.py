@@ -1,0 +1,106 @@
+"""Convergence of the wear–fatigue competition with the grid and the block length (issue 29,
+docs/performance.md "Convergence of the wear"): combined mean wear depth, R_q, Δq and A_p per
+body of one work item after each block, at several grids n² (the same physical window) and
+block lengths ΔN.
+
+The surfaces are one realisation made on the ``--ref`` grid (default 256²) and resampled
+(antialiased) to each grid, so that a grid's difference is its discretisation, not another
+roughness sample. Each run uses the scene's settings otherwise (the converged default:
+adaptive blocks, implicit wear); ``--grids`` runs at the scene's ΔN, ``--blocks-M`` at the
+scene's grid. One rank, one process. Rows go to ``--csv`` as they finish; a re-run skips
+the runs already there (same case, k_lub, n and ΔN).
+
+    python benchmarks/bench_wear_convergence.py --position 3 --k-lub 5e-11 --grids 64 128 \\
+        --blocks-M 1 0.5 0.25 0.1 --cycles-M 3 --csv benchmarks/results/wear_convergence.csv
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import sys
+import time
+from pathlib import Path
+
+from micropit_hpc.conditions import contact_study
+from micropit_hpc.plan import WorkItem, reference_half_width, window_grid
+from micropit_hpc.scene import load_scene
+from micropit_hpc.study import ItemRun
+from micropit_hpc.surfaces.bodies import body_surface
+
+ROOT = Path(__file__).resolve().parents[1]
+COLUMNS = ("scene", "position", "k_lub_s", "n", "block_M", "cycles_M", "wear_um",
+           "Rq_um_1", "Rq_um_2", "dq_1", "dq_2", "Ap_1", "Ap_2", "phi", "sub_blocks",
+           "wear_cycles", "wall_s")
+
+
+def _run(base, position, k_lub, n, block_M, cycles_M, reference, out):
+    scene = dataclasses.replace(
+        base, window=dataclasses.replace(base.window, nx=n, ny=None),
+        life=dataclasses.replace(base.life, block=block_M * 1e6))
+    study = contact_study(scene)
+    grid = window_grid(scene, reference_half_width(study))
+    surfaces = tuple(s.resampled(grid) for s in reference)
+    run = ItemRun(scene, WorkItem(0, position, k_lub, 1.0, 0), base=study, surfaces=surfaces)
+    t0, subs, wear_cycles = time.perf_counter(), 0, 0
+    while run.state.cycles < cycles_M * 1e6 * (1 - 1e-9):
+        rec = run.run_block(min(run.life.block, cycles_M * 1e6 - run.state.cycles))
+        subs += rec.sub_blocks
+        wear_cycles += rec.wear_cycles
+        row = (Path(base.source).stem if base.source else "scene", position, k_lub, n, block_M,
+               run.state.cycles / 1e6, sum(rec.wear_mean) * 1e6, rec.Rq[0] * 1e6,
+               rec.Rq[1] * 1e6, rec.slope[0], rec.slope[1], rec.Ap[0], rec.Ap[1], rec.phi,
+               subs, wear_cycles, time.perf_counter() - t0)
+        out(row)
+
+
+def _done(path: Path) -> set:
+    if not path or not path.exists():
+        return set()
+    with open(path) as f:
+        return {(r["position"], float(r["k_lub_s"]), int(r["n"]), float(r["block_M"]))
+                for r in csv.DictReader(f)}
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--scene", default=str(ROOT / "scenes" / "paper_gear_z23.toml"))
+    ap.add_argument("--position", type=int, default=3)
+    ap.add_argument("--k-lub", type=float, nargs="+", default=[5e-11])
+    ap.add_argument("--grids", type=int, nargs="*", default=[64, 128])
+    ap.add_argument("--blocks-M", type=float, nargs="*", default=[1.0, 0.5, 0.25, 0.1])
+    ap.add_argument("--cycles-M", type=float, default=3.0)
+    ap.add_argument("--ref", type=int, default=256, help="grid of the surface realisation")
+    ap.add_argument("--csv", default=None)
+    a = ap.parse_args(argv)
+    base = load_scene(a.scene)
+    ref_scene = dataclasses.replace(base, window=dataclasses.replace(base.window, nx=a.ref,
+                                                                      ny=None))
+    ref_grid = window_grid(ref_scene, reference_half_width(contact_study(ref_scene)))
+    reference = tuple(body_surface(ref_scene, i, ref_grid) for i in (1, 2))
+    path = Path(a.csv) if a.csv else None
+    done = _done(path)
+    runs = [(n, base.life.block / 1e6) for n in a.grids]
+    runs += [(base.window.nx, b) for b in a.blocks_M if (base.window.nx, b) not in runs]
+    if path and not path.exists():
+        path.parent.mkdir(parents=True, exist_ok=True)
+        path.write_text(",".join(COLUMNS) + "\n")
+    print(",".join(COLUMNS), flush=True)
+
+    def out(row):
+        line = ",".join(f"{v:.5g}" if isinstance(v, float) else str(v) for v in row)
+        print(line, flush=True)
+        if path:
+            with open(path, "a") as f:
+                f.write(line + "\n")
+    for k in a.k_lub:
+        for n, block in runs:
+            if (str(a.position), k, n, block) in done:
+                continue
+            _run(base, a.position, k, n, block, a.cycles_M, reference, out)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
