@@ -57,8 +57,9 @@ __all__ = ["ImplicitWear", "SpectralRelief", "backward_euler", "next_length"]
 MEMORY = 10
 
 #: θ, the share of the elastic relief model that the preconditioner uses (module docstring;
-#: measured in docs/life.md, "Implicit wear": 0.1–0.5 all converge, 1 and above over-damp).
-RELIEF_SHARE = 0.25
+#: measured in docs/life.md, "Implicit wear": 0.25 and above over-damp the running-in,
+#: where a third of the contact is plastic and does not unload; 1 and above over-damp later).
+RELIEF_SHARE = 0.1
 
 #: Relative residual and the most iterations of the preconditioner's conjugate gradients.
 CG_TOL, CG_MAX_ITER = 1e-3, 200
