@@ -84,8 +84,50 @@ def _check(name: str, value, allow_inf: bool = False) -> float:
     return v
 
 
+#: Images of the ACF are summed while they can exceed this (relative to R(0) = 1).
+_ACF_IMAGE_FLOOR = 1e-17
+
+
+def _acf(tx: np.ndarray, ty: np.ndarray, acf: str) -> np.ndarray:
+    """R at the lags (τx/βx, τy/βy) given as 1-D arrays (outer grid)."""
+    tx, ty = np.asarray(tx)[:, None], np.asarray(ty)[None, :]
+    r2 = tx * tx + ty * ty
+    return np.exp(-_LN10 * (np.sqrt(r2) if acf == "exponential" else r2))
+
+
+def _periodic_acf(grid: Grid, bx: float, by: float, acf: str) -> np.ndarray:
+    """Σ_m R(τ + m L) at the grid's lags, over the images that can exceed
+    :data:`_ACF_IMAGE_FLOOR`; β_y = inf: R is constant along y, no images in y. The Gaussian
+    R is separable, so its images are two 1-D sums; the exponential's are summed in 2-D."""
+    reach = math.log(1 / _ACF_IMAGE_FLOOR) / _LN10      # a·d = ln(1/floor) at the last image
+    if acf == "gaussian":
+        reach = math.sqrt(reach)
+
+    def lags(n, length, beta):
+        base = np.fft.fftfreq(n) * length / beta
+        if beta == math.inf:
+            return base, [0]
+        m = int(math.ceil(reach * beta / length + 0.5))
+        return base, range(-m, m + 1)
+
+    (tx, mx), (ty, my) = lags(grid.nx, grid.lx, bx), lags(grid.ny, grid.ly, by)
+    sx, sy = grid.lx / bx, (grid.ly / by if by != math.inf else 0.0)
+    if acf == "gaussian":
+        rx = sum(np.exp(-_LN10 * (tx + i * sx) ** 2) for i in mx)
+        ry = sum(np.exp(-_LN10 * (ty + j * sy) ** 2) for j in my)
+        return rx[:, None] * ry[None, :]
+    r = np.zeros(grid.shape)
+    for i in mx:
+        for j in my:
+            near = math.hypot(max(abs(i) - 0.5, 0.0) * sx, max(abs(j) - 0.5, 0.0) * sy)
+            if near <= reach:
+                r += _acf(tx + i * sx, ty + j * sy, acf)
+    return r
+
+
 def gaussian_surface(grid: Grid, rq: float, corr_x: float, corr_y: float, seed: int,
-                     acf: str = "exponential", spawn_key: tuple = ()) -> Topography:
+                     acf: str = "exponential", spawn_key: tuple = (),
+                     periodic_acf: bool = True) -> Topography:
     """Gaussian random field of R_q = ``rq`` [m] with correlation lengths β_x, β_y [m].
 
     β is the lag at which the autocorrelation R falls to 0.1 (Patir, Wear 47 (1978) 263), with
@@ -94,26 +136,34 @@ def gaussian_surface(grid: Grid, rq: float, corr_x: float, corr_y: float, seed: 
       "gaussian":    R(τx, τy) = exp(−a ((τx/βx)² + (τy/βy)²)).
     Ground gear flanks and discs have their lay across the rolling direction: β_y ≫ β_x
     (ridges along y); ``corr_y = inf`` gives perfectly transverse ridges, constant along y.
-    The filter is √S with S the DFT of R sampled at the grid's (minimum-image) lags (Hu &
-    Tonder, Int. J. Mach. Tools Manuf. 32 (1992) 83), i.e. the continuous spectrum aliased
-    onto the grid (round-off negatives set to 0): the field's autocorrelation at the grid lags
-    is R itself, without the loss of the spectral tail that sampling the continuous spectrum
-    (∝ (a² + (k_x β_x)² + (k_y β_y)²)^(−3/2) for the exponential) would cause. β should be
-    well below the window size; β ≲ Δx approaches white noise.
+    The filter is √S with S the DFT of R sampled at the grid's lags (Hu & Tonder, Int. J.
+    Mach. Tools Manuf. 32 (1992) 83), R taken **periodic**: the sum of its images
+    Σ_m R(τ + m L) over the window's periods (``periodic_acf``, the default), i.e. the continuous
+    spectrum sampled at the window's wavenumbers and aliased onto the grid (round-off negatives
+    set to 0), without the loss of the spectral tail that sampling the continuous spectrum
+    alone (∝ (a² + (k_x β_x)² + (k_y β_y)²)^(−3/2) for the exponential) would cause. A field on a
+    periodic window has a periodic autocorrelation, so where R has not died out at half the
+    window (R(L/2) = 0.08 for the Gaussian ACF at β = 0.9 × L/2, the paper scenes' β_y) the
+    field's ACF is R plus its images. ``periodic_acf = False`` is the generator before
+    2026-11-25: R at the minimum-image lags, which has a kink at the half-window lag ±L/2
+    whenever R(L/2) ≠ 0; that kink puts a spectral tail ∝ k⁻² (and the clipped negative lobes
+    of its ringing) at every wavenumber up to the Nyquist, so the "Gaussian" field was not
+    band-limited and a finer grid resolved more roughness (docs/performance.md, "The MPR rig's
+    film share"). β should be well below the window size; β ≲ Δx approaches white noise.
     """
     rq, bx, by = _check("rq", rq), _check("corr_x", corr_x), _check("corr_y", corr_y, True)
     if acf not in ACF_KINDS:
         raise TopographyError(f"acf = {acf!r}: unknown (allowed: {', '.join(ACF_KINDS)})")
-    tx = (np.fft.fftfreq(grid.nx) * grid.lx / bx)[:, None]   # signed lags / β
-    ty = (np.fft.fftfreq(grid.ny) * grid.ly / by)[None, :]
-    r2 = tx * tx + ty * ty
-    r = np.exp(-_LN10 * (np.sqrt(r2) if acf == "exponential" else r2))
+    r = (_periodic_acf(grid, bx, by, acf) if periodic_acf
+         else _acf(np.fft.fftfreq(grid.nx) * grid.lx / bx,
+                   np.fft.fftfreq(grid.ny) * grid.ly / by, acf))
     s = np.maximum(np.fft.rfft2(r).real, 0.0)
     if by == math.inf:
         s *= grid.ky == 0  # exactly constant along y
     h = _filtered(grid, np.sqrt(s), rq, seed, spawn_key)
     prov = (f"gaussian_surface(rq={rq!r} m, corr_x={bx!r} m, corr_y={by!r} m, acf={acf!r}, "
-            f"seed={seed}, spawn_key={tuple(spawn_key)}) on {grid.nx}x{grid.ny} over "
+            f"seed={seed}, spawn_key={tuple(spawn_key)}"
+            f"{'' if periodic_acf else ', periodic_acf=False'}) on {grid.nx}x{grid.ny} over "
             f"{grid.lx!r} m x {grid.ly!r} m")
     return Topography(h, grid.dx, grid.dy, prov)
 
