@@ -354,7 +354,9 @@ class PositionCycle:
         ½ t_f (1 − cos θ_j), θ_j = (j + ½)π/m, so that x_c = −b cos θ_j."""
         if not 0 <= step < self.steps:
             raise MicropitError(f"step {step} does not exist (the cycle has steps 0 to "
-                                f"{self.steps - 1}; window.steps = {self.steps})")
+                                f"{self.steps - 1}: m = {self.steps}, window.steps = "
+                                f"{self.scene.window.steps} raised by the kinematics where "
+                                "it is)")
         if self.spacing == "uniform":
             return (step + 0.5) * self.t_f / self.steps
         return 0.5 * self.t_f * (1.0 - math.cos((step + 0.5) * math.pi / self.steps))
