@@ -36,7 +36,7 @@ from micropit_hpc.fatigue.dangvan import ALPHA_DV, dang_van
 from micropit_hpc.fatigue.dangvan import CHUNK as DV_CHUNK
 from micropit_hpc.fatigue.rainflow import rainflow_damage
 from micropit_hpc.fatigue.sn import WoehlerLine
-from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
+from micropit_hpc.lubrication.dry import ContactError, ElasticHalfSpaces, solve_dry_contact
 from micropit_hpc.lubrication.mixed import MixedLubrication, restore_mean
 from micropit_hpc.mechanics.halfspace import (
     STRESS_CHUNK_BYTES,
@@ -430,8 +430,22 @@ class PositionCycle:
         r_now = tuple(fourier_shift(r, g, self.slip(i + 1, t))
                       for i, r in enumerate(self.rough_spectra))
         level = "smooth" if p_mean == 0.0 else self.level
-        pressure, clearance, phi, iters = self._CONTACT[level](self, r_now, p_mean, t, p_init,
-                                                               warm)
+        try:
+            pressure, clearance, phi, iters = self._CONTACT[level](self, r_now, p_mean, t,
+                                                                   p_init, warm)
+        except ContactError:
+            if p_init is None and not warm:      # a cold start failed: that stands
+                raise
+            # a warm start from other surfaces (the last evaluation's, before the wear) can
+            # stall the solver where p̄ is small, next to the contact's edges where the cosine
+            # steps fall (a quick-scene step at 0.03 p0: residual 1e-3 after 5000 iterations,
+            # converged from cold); once more from cold, the same on every rank of the group
+            fresh = None if warm is None else {}
+            pressure, clearance, phi, iters = self._CONTACT[level](self, r_now, p_mean, t,
+                                                                   None, fresh)
+            if warm is not None:
+                warm.clear()
+                warm.update(fresh)
         if self.pits is not None and p_mean > 0.0:
             pressure, clearance = self._unload_pits(pressure, clearance, p_mean, t)
         solid = clearance <= lub.h_min if self.level != "smooth" else np.zeros(g.shape, bool)

@@ -368,3 +368,36 @@ def test_every_surface_kind_and_contact_level_has_its_maker():
 
     assert set(SURFACE_MAKERS) == set(SURFACE_KINDS)
     assert set(PositionCycle._CONTACT) == set(LEVELS)
+
+
+def test_a_warm_start_that_stalls_is_retried_cold(monkeypatch):
+    """A contact solve that fails from its warm start (the last evaluation's solution, on other
+    surfaces) is solved once more from cold, and the warm start becomes the cold solution's; a
+    cold failure stands."""
+    from micropit_hpc.lubrication.dry import ContactError
+
+    study = contact_study(_step_scene(steps=3))
+    cyc = PositionCycle(study, 2)
+    real = PositionCycle._CONTACT[cyc.level]
+    calls = []
+
+    def stalls_when_warm(self, r_now, p_mean, t, p_init, warm):
+        calls.append(bool(warm))
+        if warm:
+            raise ContactError("stalled")
+        return real(self, r_now, p_mean, t, p_init, warm)
+
+    monkeypatch.setitem(PositionCycle._CONTACT, cyc.level, stalls_when_warm)
+    warm = {}
+    first = cyc.solve_step(1, None, warm)
+    assert calls == [False] and warm
+    again = cyc.solve_step(1, None, warm)
+    assert calls == [False, True, False] and warm
+    np.testing.assert_array_equal(again.pressure, first.pressure)
+
+    def never(self, r_now, p_mean, t, p_init, warm):
+        raise ContactError("no solution")
+
+    monkeypatch.setitem(PositionCycle._CONTACT, cyc.level, never)
+    with pytest.raises(ContactError, match="no solution"):
+        cyc.solve_step(1)
