@@ -67,7 +67,8 @@ def _cmd_snapshot(args: argparse.Namespace) -> int:
         args.step = (cycle.steps + 1) // 2
     if args.step > cycle.steps:
         raise MicropitError(f"--step {args.step}: the cycle has steps 1 to {cycle.steps} "
-                            f"(window.steps = {cycle.steps} in {scene.source})")
+                            f"(window.steps = {scene.window.steps} in {scene.source}, raised "
+                            "by the kinematics where it is: docs/model.md §4)")
     step = args.step - 1
     fields = cycle.solve_step(step)
     t1 = time.perf_counter()

@@ -36,7 +36,7 @@ from micropit_hpc.fatigue.dangvan import ALPHA_DV, dang_van
 from micropit_hpc.fatigue.dangvan import CHUNK as DV_CHUNK
 from micropit_hpc.fatigue.rainflow import rainflow_damage
 from micropit_hpc.fatigue.sn import WoehlerLine
-from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
+from micropit_hpc.lubrication.dry import ContactError, ElasticHalfSpaces, solve_dry_contact
 from micropit_hpc.lubrication.mixed import MixedLubrication, restore_mean
 from micropit_hpc.mechanics.halfspace import (
     STRESS_CHUNK_BYTES,
@@ -53,8 +53,9 @@ from micropit_hpc.surfaces import Topography
 from micropit_hpc.surfaces.bodies import body_surface
 from micropit_hpc.wear import WearRate, archard_wear, solid_weight
 
-__all__ = ["BodyCycle", "CycleResult", "PositionCycle", "StepFields", "contact_parallel",
-           "contact_split_min_cells", "micro_cycles", "rainflow_steps"]
+__all__ = ["STEP_SPACINGS", "BodyCycle", "CycleResult", "PositionCycle", "StepFields",
+           "contact_parallel", "contact_split_min_cells", "counterface_spacing", "cycle_steps",
+           "micro_cycles", "rainflow_steps", "slip_steps", "step_weights"]
 
 #: Windows of at least this many cells split the contact solve of a group of several ranks
 #: over its slabs (docs/hpc.md §2); smaller ones solve it on every rank of the group alike,
@@ -179,12 +180,80 @@ def micro_cycles(cycle: PositionCycle, body: int, lam_c: float) -> float:
     return 2.0 * c.b * abs(c.u1 - c.u2) / (u_i * lam_c)
 
 
-def rainflow_steps(c: ContactConditions, steps: int, lam_c: float) -> int:
+#: Where the time steps fall in the transit (``window.step_spacing``, docs/model.md §4):
+#: ``"cosine"``, x_c = −b cos θ_j with θ_j = (j + ½)π/m; ``"uniform"``, t_j = (j + ½) t_f/m.
+STEP_SPACINGS = ("cosine", "uniform")
+
+
+def step_weights(m: int, spacing: str = "uniform") -> np.ndarray:
+    """Each step's share w_j of the transit time (Σ w_j = 1): the time cell it stands for.
+    ``uniform``: 1/m; ``cosine``: the cell θ_j ± π/2m, w_j = sin θ_j sin(π/2m), which tile
+    the transit exactly (Σ_j sin θ_j = 1/sin(π/2m))."""
+    if spacing == "uniform":
+        return np.full(m, 1.0 / m)
+    theta = (np.arange(m) + 0.5) * math.pi / m
+    return np.sin(theta) * math.sin(0.5 * math.pi / m)
+
+
+def slip_steps(c: ContactConditions, length: float, spacing: str = "uniform") -> int:
+    """The fewest steps m whose largest step lets the surfaces slip past each other by at most
+    ``length`` [m] (docs/model.md §4): a step's slip is its time share w_j of the transit's
+    2b|S| (:func:`step_weights`), so ``uniform`` needs 2b|S|/m ≤ length and ``cosine``, whose
+    largest share is at most sin(π/2m) (exactly for odd m), m ≥ π / (2 asin(length/2b|S|)),
+    less the one or two fewer steps whose largest share still fits. 1 without sliding."""
+    slip = 2.0 * c.b * abs(c.S)
+    if slip <= 0.0 or not length > 0.0 or math.isinf(length):
+        return 1
+    if spacing == "uniform":
+        return max(1, math.ceil(slip / length - 1e-9))
+    r = length / slip
+    if r >= 1.0:
+        return 1
+    m = max(1, math.ceil(0.5 * math.pi / math.asin(r) - 1e-9))
+    while m > 1 and step_weights(m - 1, spacing).max() <= r * (1 + 1e-12):
+        m -= 1
+    return m
+
+
+def rainflow_steps(c: ContactConditions, steps: int, lam_c: float,
+                   spacing: str = "uniform") -> int:
     """Time steps for rainflow counting at contact ``c`` (docs/model.md §4.4): the relative slip per
-    step 2b|S|/m must not exceed λ_c/4, so m ≥ 8 b |S| / λ_c; never fewer than ``steps``."""
+    step must not exceed λ_c/4 (uniform steps: 2b|S|/m ≤ λ_c/4, so m ≥ 8 b |S| / λ_c;
+    :func:`slip_steps`); never fewer than ``steps``."""
     if not math.isfinite(lam_c) or lam_c <= 0:
         return steps
-    return max(steps, math.ceil(8.0 * c.b * abs(c.S) / lam_c - 1e-9))
+    return max(steps, slip_steps(c, lam_c / 4.0, spacing))
+
+
+def counterface_spacing(scene, surfaces, dx: float) -> float:
+    """The smaller peak spacing λ_c of the rough ``surfaces`` [m] (wavelengths below
+    ``fatigue.peak_spacing_min_cells`` cells of ``dx`` left out; inf: both smooth)."""
+    cut = scene.fatigue.peak_spacing_min_cells * dx
+    return min(s.peak_spacing_x(cut) if s.rq > 0 else math.inf for s in surfaces)
+
+
+def cycle_steps(scene, c: ContactConditions, lam_c: float) -> tuple[int, str]:
+    """The time steps m of a load cycle at contact ``c`` whose surfaces have the peak spacing
+    ``lam_c`` [m] (:func:`counterface_spacing`; inf: smooth), and why they exceed
+    ``window.steps`` ("" when they do not; docs/model.md §4): the floor ``window.steps``,
+    raised so that the largest step lets the surfaces slip past each other by at most
+    λ_c/``window.steps_per_peak_spacing`` (:func:`slip_steps`), and for ``fatigue.counting =
+    "rainflow"`` by at most λ_c/4 (:func:`rainflow_steps`); the strictest wins."""
+    w = scene.window
+    m, why = w.steps, ""
+    if not math.isfinite(lam_c) or lam_c <= 0:
+        return m, why
+    per = w.steps_per_peak_spacing
+    m_slip = slip_steps(c, lam_c / per, w.step_spacing)
+    if m_slip > m:
+        m, why = m_slip, (f"relative slip per step ≤ λ_c/{per:g}, λ_c = {lam_c * 1e6:.3g} µm; "
+                          f"2b|S| = {2.0 * c.b * abs(c.S) / lam_c:.3g} λ_c over the transit")
+    if scene.fatigue.counting == "rainflow":
+        m_rf = rainflow_steps(c, m, lam_c, w.step_spacing)
+        if m_rf > m:
+            m, why = m_rf, (f"rainflow counting: slip per step ≤ λ_c/4, λ_c = "
+                            f"{lam_c * 1e6:.3g} µm")
+    return m, why
 
 
 class PositionCycle:
@@ -236,7 +305,12 @@ class PositionCycle:
         self.set_surfaces(surfaces)
         rough = any(s.rq > 0 for s in surfaces)
         self.level = choose_level(scene, c, rough)
-        self.steps = scene.window.steps if steps is None else int(steps)
+        if steps is None:     # the floor window.steps, raised by the kinematics (cycle_steps)
+            steps = cycle_steps(scene, c, counterface_spacing(scene, surfaces, g.dx))[0]
+        self.steps = int(steps)
+        self.spacing = scene.window.step_spacing
+        #: each step's share of the transit time, Σ = 1 (:func:`step_weights`)
+        self.weights = step_weights(self.steps, self.spacing)
         self.t_f = 2.0 * c.b / c.u_mean
         lub = scene.lubrication
         self.p_lim = lub.p_lim_hardness * min(scene.body1.hardness, scene.body2.hardness)
@@ -276,11 +350,16 @@ class PositionCycle:
 
     # ---- kinematics --------------------------------------------------------------------------
     def time(self, step: int) -> float:
-        """t_j = (j + ½) t_f/m, steps counted from 0."""
+        """t_j, steps counted from 0: ``uniform`` spacing (j + ½) t_f/m; ``cosine``
+        ½ t_f (1 − cos θ_j), θ_j = (j + ½)π/m, so that x_c = −b cos θ_j."""
         if not 0 <= step < self.steps:
             raise MicropitError(f"step {step} does not exist (the cycle has steps 0 to "
-                                f"{self.steps - 1}; window.steps = {self.steps})")
-        return (step + 0.5) * self.t_f / self.steps
+                                f"{self.steps - 1}: m = {self.steps}, window.steps = "
+                                f"{self.scene.window.steps} raised by the kinematics where "
+                                "it is)")
+        if self.spacing == "uniform":
+            return (step + 0.5) * self.t_f / self.steps
+        return 0.5 * self.t_f * (1.0 - math.cos((step + 0.5) * math.pi / self.steps))
 
     def centre(self, t: float) -> float:
         """x_c(t) = −b + ū t."""
@@ -351,8 +430,22 @@ class PositionCycle:
         r_now = tuple(fourier_shift(r, g, self.slip(i + 1, t))
                       for i, r in enumerate(self.rough_spectra))
         level = "smooth" if p_mean == 0.0 else self.level
-        pressure, clearance, phi, iters = self._CONTACT[level](self, r_now, p_mean, t, p_init,
-                                                               warm)
+        try:
+            pressure, clearance, phi, iters = self._CONTACT[level](self, r_now, p_mean, t,
+                                                                   p_init, warm)
+        except ContactError:
+            if p_init is None and not warm:      # a cold start failed: that stands
+                raise
+            # a warm start from other surfaces (the last evaluation's, before the wear) can
+            # stall the solver where p̄ is small, next to the contact's edges where the cosine
+            # steps fall (a quick-scene step at 0.03 p0: residual 1e-3 after 5000 iterations,
+            # converged from cold); once more from cold, the same on every rank of the group
+            fresh = None if warm is None else {}
+            pressure, clearance, phi, iters = self._CONTACT[level](self, r_now, p_mean, t,
+                                                                   None, fresh)
+            if warm is not None:
+                warm.clear()
+                warm.update(fresh)
         if self.pits is not None and p_mean > 0.0:
             pressure, clearance = self._unload_pits(pressure, clearance, p_mean, t)
         solid = clearance <= lub.h_min if self.level != "smooth" else np.zeros(g.shape, bool)
@@ -617,7 +710,8 @@ class PositionCycle:
                                  else f.solid for f in fields],
                                 [self.slip(body, f.t) for f in fields], self.grid.dx, c.u_s,
                                 own.hardness, other.hardness, self.k_lub,
-                                self.scene.wear.f_w, self.half_spaces.self_compliance)
+                                self.scene.wear.f_w, self.half_spaces.self_compliance,
+                                None if self.spacing == "uniform" else self.weights)
 
     def wear_rates(self, surfaces: tuple[Topography, Topography],
                    pits: tuple[np.ndarray, np.ndarray] | None = None,
@@ -656,20 +750,24 @@ class PositionCycle:
         lam = tuple(s.peak_spacing_x(fat.peak_spacing_min_cells * g.dx) if s.rq > 0
                     else math.inf for s in self.surfaces)
         fields = self._contact_steps(warm, on_step)
-        p_sum = sum(float(f.pressure.sum()) for f in fields)
-        weights = np.array([f.p_mean for f in fields])
+        w = self.weights                    # each step's share of the transit time
+        p_sum = sum(wj * float(f.pressure.sum()) for wj, f in zip(w, fields, strict=True))
+        weights = w * np.array([f.p_mean for f in fields])
         phi = (float((weights * [f.phi for f in fields]).sum() / weights.sum())
                if weights.any() else 0.0)
-        solid = float(np.mean([f.solid.mean() for f in fields]))
+        solid = float(sum(wj * f.solid.mean() for wj, f in zip(w, fields, strict=True)))
         at_lim = (1.0 - 1e-9) * self.p_lim
-        in_contact = sum(int(np.count_nonzero(f.pressure > 0.0)) for f in fields)
-        plastic = (sum(int(np.count_nonzero(f.pressure >= at_lim)) for f in fields) / in_contact
+        in_contact = sum(wj * np.count_nonzero(f.pressure > 0.0)
+                         for wj, f in zip(w, fields, strict=True))
+        plastic = (float(sum(wj * np.count_nonzero(f.pressure >= at_lim)
+                             for wj, f in zip(w, fields, strict=True)) / in_contact)
                    if in_contact else 0.0)
         sn = self.woehler
         out = []
         rainflow = fat.counting == "rainflow"
         for body in (1, 2):
-            q = sum(float((f.traction1 if body == 1 else f.traction2).sum()) for f in fields)
+            q = sum(wj * float((f.traction1 if body == 1 else f.traction2).sum())
+                    for wj, f in zip(w, fields, strict=True))
             mu_signed = q / p_sum if p_sum > 0 else 0.0
             with event("dang_van_macro"):
                 macro = dang_van(self.macro_history(body, mu_signed, fat.macro_samples),

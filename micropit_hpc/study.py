@@ -18,7 +18,7 @@ from collections.abc import Callable, Mapping, Sequence
 import numpy as np
 
 from micropit_hpc.conditions import ContactStudy, contact_study
-from micropit_hpc.cycle import PositionCycle, rainflow_steps
+from micropit_hpc.cycle import PositionCycle, counterface_spacing, cycle_steps
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.film import iso_lambda_gf
 from micropit_hpc.io.results import SUMMARY_UNITS
@@ -67,15 +67,13 @@ class ItemRun:
             surfaces = tuple(s.scaled_to_rq(s.rq * item.scale) if s.rq > 0 else s
                              for s in surfaces)
         self.life = scene.life          # the blocks' settings: the scene's [life], not a copy
-        steps = scene.window.steps
-        if scene.fatigue.counting == "rainflow":
-            cut = scene.fatigue.peak_spacing_min_cells * grid.dx
-            lam_c = min(s.peak_spacing_x(cut) if s.rq > 0 else math.inf for s in surfaces)
-            steps = rainflow_steps(study.conditions[item.position - 1], steps, lam_c)
-            if steps > scene.window.steps and log and (comm is None or comm.rank == 0):
-                log(f"item {item.id}: rainflow counting raises the time steps from "
-                    f"{scene.window.steps} to {steps} (slip per step ≤ λ_c/4, λ_c = "
-                    f"{lam_c * 1e6:.3g} µm)")
+        # the floor window.steps, raised by the kinematics (docs/model.md §4): the same rule
+        # as a PositionCycle without steps, on every rank of the group alike
+        steps, why = cycle_steps(scene, study.conditions[item.position - 1],
+                                 counterface_spacing(scene, surfaces, grid.dx))
+        if why and log and (comm is None or comm.rank == 0):
+            log(f"item {item.id} (position {item.position}): the time steps raised from "
+                f"{scene.window.steps} to {steps} ({why})")
         self.surfaces = surfaces
         self.cycle = PositionCycle(study, item.position, surfaces=surfaces, steps=steps,
                                    comm=comm, window=window, k_lub=item.k_lub)

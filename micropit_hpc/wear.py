@@ -100,7 +100,7 @@ def solid_weight(clearance: np.ndarray, h_min: float, ramp: float) -> np.ndarray
 def archard_wear(pressures: Sequence[np.ndarray], solids: Sequence[np.ndarray],
                  shifts: Sequence[float], dx: float, u_s: float, hardness: float,
                  counter_hardness: float, k_lub: float, f_w: float,
-                 cell_compliance: float) -> WearRate:
+                 cell_compliance: float, weights: Sequence[float] | None = None) -> WearRate:
     """Δh_i per load cycle [m] of body i in its material frame, split by regime, with the
     relaxation rate of its solid part (module docstring).
 
@@ -108,18 +108,23 @@ def archard_wear(pressures: Sequence[np.ndarray], solids: Sequence[np.ndarray],
     (:func:`solid_weight`; a mask is s ∈ {0, 1}) of each of the m time steps; ``shifts``: the
     body's slip (u_i − ū) t_j at each step [m]; ``u_s`` the sliding speed, ``hardness`` H_i
     and ``counter_hardness`` H_j [Pa], ``k_lub`` [s], ``f_w`` the solid-contact factor,
-    ``cell_compliance`` K₀ [m/Pa].
+    ``cell_compliance`` K₀ [m/Pa]; ``weights``: each step's share of the transit time (Σ = 1;
+    None: 1/m each, uniform steps).
     """
     shape = np.shape(pressures[0])
     if k_lub == 0.0 or u_s == 0.0:
         return WearRate(np.zeros(shape), np.zeros(shape), np.zeros(shape))
     solid_acc, fluid_acc, share = np.zeros(shape), np.zeros(shape), np.zeros(shape)
-    for p, solid, shift in zip(pressures, solids, shifts, strict=True):
+    ws = [1.0] * len(pressures) if weights is None else weights
+    for p, solid, shift, w in zip(pressures, solids, shifts, ws, strict=True):
         s = np.asarray(solid, dtype=float)
-        solid_acc += to_material_frame(s * p, shift, dx)
-        fluid_acc += to_material_frame((1.0 - s) * p, shift, dx)
+        sp, fp = s * p, (1.0 - s) * p
+        if weights is not None:
+            sp, fp, s = w * sp, w * fp, w * s
+        solid_acc += to_material_frame(sp, shift, dx)
+        fluid_acc += to_material_frame(fp, shift, dx)
         share += to_material_frame(s, shift, dx)
-    m = len(pressures)
+    m = len(pressures) if weights is None else 1.0
     scale = 0.5 * abs(u_s) / hardness * k_lub / m
     relax = (0.5 * abs(u_s) * f_w * k_lub * (1.0 / hardness + 1.0 / counter_hardness)
              / cell_compliance) * (share / m)

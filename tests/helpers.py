@@ -48,7 +48,9 @@ def tiny_doc(slide_roll=(0.0, 0.3), k_lub=(0.0,)):
                   "surface": {"acf": "gaussian", "corr_x_um": 15.0}},
         "lubricant": {"eta0_mPas": 3.1, "alpha_pv_1_per_GPa": 14.0, "eyring_stress_MPa": 5.0},
         "film": {"hc_um": 0.037},
-        "window": {"n": 32, "steps": 8},
+        # the rule that raises the steps with the slip (docs/model.md §4) held off: λ_c/16
+        # would ask 45 steps at |S| = 0.3 here; test_cycle.py tests the rule
+        "window": {"n": 32, "steps": 8, "steps_per_peak_spacing": 0.25},
         "stress": {"layers": 6},
         "wear": {"k_lub_s": list(k_lub)},
         # the life-loop tests check Miner, wear, pits, restarts and invariances, not how finely
@@ -81,6 +83,7 @@ SMALL = """
 [window]
 n = 32
 steps = 4
+steps_per_peak_spacing = 0.25
 [stress]
 layers = 4
 """

@@ -253,3 +253,28 @@ def test_a_cycle_shares_its_time_steps_over_the_ranks_with_one_ranks_numbers():
         raised = str(e)
     ok = ok and raised is not None and raised == comm.bcast(raised, root=1)
     assert agree(comm, ok)
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.timeout(300)
+def test_steps_raised_by_the_kinematics_are_shared_over_the_ranks():
+    """The steps the kinematic rule chose (docs/model.md §4; the tiny disc at |S| = 0.3 with
+    λ_c/22 per step: 33, more than its floor of 3 and odd) are the same on every rank and are
+    shared over them like any m, with one rank's numbers on every rank."""
+    from mpi4py import MPI
+
+    comm = MPI.COMM_WORLD
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["window"] = {"n": 16, "steps": 3, "steps_per_peak_spacing": 22.0}
+    study = contact_study(scene_from_dict(doc, "tiny.toml"))
+    one = PositionCycle(study, 1)
+    shared = PositionCycle(study, 1, comm=comm, parallel="steps")
+    ok = one.steps > 3 and shared.steps == one.steps and one.steps % comm.size != 0
+    ok = ok and comm.allgather(shared.steps) == [one.steps] * comm.size
+    solved = []
+    a = one._contact_steps(None, None)
+    b = shared._contact_steps(None, solved.append)
+    ok = ok and solved == list(range(comm.rank + 1, one.steps + 1, comm.size))
+    ok = ok and len(b) == one.steps and all(
+        np.array_equal(x.pressure, y.pressure) and x.t == y.t for x, y in zip(a, b, strict=True))
+    assert agree(comm, ok)

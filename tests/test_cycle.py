@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import subprocess
 import sys
+import types
 
 import numpy as np
 import pytest
@@ -23,22 +25,131 @@ from micropit_hpc.scene import load_scene
 
 
 def test_window_kinematics(tmp_path):
-    """t_j = (j+½)t_f/m, x_c from −b to +b, relative slip over the transit 2b|S|
-    (docs/model.md §4)."""
-    study = contact_study(load_scene(gear_scene(tmp_path)))
-    cyc = PositionCycle(study, 3)
-    c = cyc.cond
-    m = cyc.steps
-    assert cyc.centre(cyc.time(0)) == pytest.approx(-c.b + c.b / m, rel=1e-12)
-    assert cyc.centre(cyc.time(m - 1)) == pytest.approx(c.b - c.b / m, rel=1e-12)
-    slip = cyc.slip(1, cyc.t_f) - cyc.slip(2, cyc.t_f)
-    assert abs(slip) == pytest.approx(2 * c.b * abs(c.S), rel=1e-12)
-    assert cyc.grid.lx == pytest.approx(2 * reference_half_width(study), rel=1e-12)
-    assert reference_half_width(study) == pytest.approx(study.conditions[5].b, rel=2e-3)
-    with pytest.raises(MicropitError, match="steps 0 to 3"):
-        cyc.time(4)
+    """x_c from −b to +b, relative slip over the transit 2b|S| (docs/model.md §4); ``uniform``
+    steps at t_j = (j+½)t_f/m, ``cosine`` (the default) at x_c = −b cos θ_j, θ_j = (j+½)π/m,
+    each weighing its share of the transit time."""
+    uniform = SMALL.replace("steps = 4", 'steps = 4\nstep_spacing = "uniform"')
+    for spacing, extra in (("cosine", SMALL), ("uniform", uniform)):
+        study = contact_study(load_scene(gear_scene(tmp_path, extra=extra, name=spacing)))
+        cyc = PositionCycle(study, 3, steps=4)
+        c = cyc.cond
+        m = cyc.steps
+        assert cyc.spacing == spacing
+        first = -c.b + c.b / m if spacing == "uniform" else -c.b * math.cos(math.pi / (2 * m))
+        assert cyc.centre(cyc.time(0)) == pytest.approx(first, rel=1e-12)
+        assert cyc.centre(cyc.time(m - 1)) == pytest.approx(-first, rel=1e-12)
+        assert cyc.weights.sum() == pytest.approx(1.0, rel=1e-14)
+        # a step's weight is the time between the midpoints of its neighbours, in t_f
+        edges = [0.0] + [0.5 * (cyc.time(j) + cyc.time(j + 1)) for j in range(m - 1)] + [cyc.t_f]
+        if spacing == "cosine":      # the cells θ_j ± π/2m, not the midpoints in t
+            edges = [0.5 * cyc.t_f * (1 - math.cos(j * math.pi / m)) for j in range(m + 1)]
+        assert cyc.weights == pytest.approx(np.diff(edges) / cyc.t_f, rel=1e-12)
+        slip = cyc.slip(1, cyc.t_f) - cyc.slip(2, cyc.t_f)
+        assert abs(slip) == pytest.approx(2 * c.b * abs(c.S), rel=1e-12)
+        assert cyc.grid.lx == pytest.approx(2 * reference_half_width(study), rel=1e-12)
+        assert reference_half_width(study) == pytest.approx(study.conditions[5].b, rel=2e-3)
+        with pytest.raises(MicropitError, match="steps 0 to 3"):
+            cyc.time(4)
     with pytest.raises(MicropitError, match="positions 1 to 11"):
         PositionCycle(study, 12)
+
+
+def _contact(b: float, S: float):
+    """What the step rule reads of a contact: its semi-width and slide-to-roll ratio."""
+    return types.SimpleNamespace(b=b, S=S)
+
+
+def test_slip_steps_bound_the_relative_slip_per_step_by_the_fewest_steps():
+    """docs/model.md §4: the largest step slips the surfaces past each other by at most the
+    length asked, uniform 2b|S|/m, cosine at most 2b|S| sin(π/2m), with the fewest such steps: b =
+    100 µm, |S| = 0.4 (2b|S| = 80 µm) against 3.2 µm cells is 25 cells, so 25 uniform steps
+    and ⌈π/(2 asin(1/25))⌉ = 40 cosine ones (39 steps, an odd number, have a
+    largest share sin(π/78) = 0.0403 > 1/25); none without sliding."""
+    c, dx = _contact(100e-6, -0.4), 3.2e-6
+    assert cycle_module.slip_steps(c, dx, "uniform") == 25
+    assert cycle_module.slip_steps(c, dx, "cosine") == 40
+    assert math.pi / (2 * math.asin(1 / 25)) == pytest.approx(39.26, abs=0.01)
+    assert math.sin(math.pi / 78) > 1 / 25
+    for spacing in cycle_module.STEP_SPACINGS:
+        for length in (0.3e-6, 1e-6, 3.2e-6, 7e-6, 50e-6):
+            m = cycle_module.slip_steps(c, length, spacing)
+            largest = 2 * c.b * abs(c.S) * cycle_module.step_weights(m, spacing).max()
+            assert largest <= length * (1 + 1e-12)
+            if m > 1:
+                fewer = 2 * c.b * abs(c.S) * cycle_module.step_weights(m - 1, spacing).max()
+                assert fewer > length
+        assert cycle_module.slip_steps(c, 1.0, spacing) == 1             # slip < one length
+        assert cycle_module.slip_steps(_contact(100e-6, 0.0), dx, spacing) == 1     # S = 0
+        assert cycle_module.step_weights(7, spacing).sum() == pytest.approx(1.0, rel=1e-14)
+
+
+def _step_scene(**window):
+    from helpers import tiny_doc
+
+    from micropit_hpc.scene import scene_from_dict
+
+    doc = tiny_doc()
+    doc["window"].pop("steps_per_peak_spacing")     # the scene's default rule
+    doc["window"].update(window)
+    return scene_from_dict(doc, "tiny_steps.toml")
+
+
+def test_cycle_steps_take_the_strictest_of_the_floor_the_slip_and_rainflow():
+    """m = max(window.steps, the slip rule λ_c/24, rainflow's λ_c/4 rule), and the reason
+    names the rule that set it (docs/model.md §4): 2b|S| = 80 µm at λ_c = 48 µm asks at most
+    2 µm per step, 40 uniform steps or 63 cosine ones (π/(2 asin(2/80)) = 62.8; 62 steps, an
+    even number, have a largest share ½ sin(π/62) = 0.0253 > 2/80)."""
+    c, lam = _contact(100e-6, 0.4), 48e-6
+    scene = _step_scene(steps=20)
+    assert scene.window.step_spacing == "cosine" and scene.window.steps_per_peak_spacing == 24
+    m, why = cycle_module.cycle_steps(scene, c, lam)
+    assert m == 63 and "relative slip per step ≤ λ_c/24" in why
+    assert math.sin(math.pi / 126) <= 2 / 80 < 0.5 * math.sin(math.pi / 62)
+    uniform = _step_scene(steps=20, step_spacing="uniform")
+    assert cycle_module.cycle_steps(uniform, c, lam)[0] == 40
+    assert cycle_module.cycle_steps(_step_scene(steps=64), c, lam) == (64, "")    # the floor
+    assert cycle_module.cycle_steps(scene, _contact(100e-6, 0.0), lam) == (20, "")  # S = 0
+    assert cycle_module.cycle_steps(scene, c, math.inf) == (20, "")               # smooth
+    assert cycle_module.cycle_steps(_step_scene(steps=20, steps_per_peak_spacing=7.0), c,
+                                    lam)[0] == 20          # λ_c/7: 19 steps would do
+
+    def rainflow(**window):
+        s = _step_scene(**window)
+        return dataclasses.replace(s, fatigue=dataclasses.replace(s.fatigue,
+                                                                  counting="rainflow"))
+    # rainflow's λ_c/4 is stricter than λ_c/2 and wins; λ_c/24 is stricter than rainflow's
+    loose = rainflow(steps=20, steps_per_peak_spacing=2.0)
+    m, why = cycle_module.cycle_steps(loose, c, 8e-6)
+    assert m == cycle_module.slip_steps(c, 2e-6, "cosine") == 63 and "rainflow" in why
+    assert m == cycle_module.rainflow_steps(c, 20, 8e-6, "cosine")
+    assert cycle_module.cycle_steps(rainflow(steps=20), c, lam) == cycle_module.cycle_steps(
+        scene, c, lam)
+
+
+def test_the_cycle_uses_the_raised_steps_and_the_study_says_so():
+    """A PositionCycle without steps and an ItemRun take the rule's m (more than the floor on
+    the tiny disc at |S| = 0.3: 2b|S| is several λ_c), solve that many contacts in a load
+    cycle and log the raise."""
+    from micropit_hpc.plan import WorkItem
+    from micropit_hpc.study import ItemRun
+
+    scene = _step_scene(steps=3)
+    study = contact_study(scene)
+    c = study.conditions[1]
+    cyc = PositionCycle(study, 2)
+    lam = cycle_module.counterface_spacing(scene, cyc.surfaces, cyc.grid.dx)
+    m, why = cycle_module.cycle_steps(scene, c, lam)
+    assert cyc.steps == m > 3 and why
+    said = []
+    run = ItemRun(scene, WorkItem(0, 2, 0.0, 1.0, 0), base=study, log=said.append)
+    assert run.cycle.steps == m
+    assert len(said) == 1 and f"from 3 to {m}" in said[0] and "slip per step" in said[0]
+    solved = []
+    res = run.cycle.evaluate(run.surfaces, on_step=solved.append)
+    assert res.steps == m and solved == list(range(1, m + 1))
+    assert PositionCycle(study, 1).steps == 3             # no sliding: the floor
+    rolling = ItemRun(scene, WorkItem(1, 1, 0.0, 1.0, 0), base=study, log=said.append)
+    assert rolling.cycle.steps == 3 and len(said) == 1    # and nothing to say
 
 
 def test_mixed_step_balances_the_load_and_stresses_match_the_surface(tmp_path):
@@ -257,3 +368,36 @@ def test_every_surface_kind_and_contact_level_has_its_maker():
 
     assert set(SURFACE_MAKERS) == set(SURFACE_KINDS)
     assert set(PositionCycle._CONTACT) == set(LEVELS)
+
+
+def test_a_warm_start_that_stalls_is_retried_cold(monkeypatch):
+    """A contact solve that fails from its warm start (the last evaluation's solution, on other
+    surfaces) is solved once more from cold, and the warm start becomes the cold solution's; a
+    cold failure stands."""
+    from micropit_hpc.lubrication.dry import ContactError
+
+    study = contact_study(_step_scene(steps=3))
+    cyc = PositionCycle(study, 2)
+    real = PositionCycle._CONTACT[cyc.level]
+    calls = []
+
+    def stalls_when_warm(self, r_now, p_mean, t, p_init, warm):
+        calls.append(bool(warm))
+        if warm:
+            raise ContactError("stalled")
+        return real(self, r_now, p_mean, t, p_init, warm)
+
+    monkeypatch.setitem(PositionCycle._CONTACT, cyc.level, stalls_when_warm)
+    warm = {}
+    first = cyc.solve_step(1, None, warm)
+    assert calls == [False] and warm
+    again = cyc.solve_step(1, None, warm)
+    assert calls == [False, True, False] and warm
+    np.testing.assert_array_equal(again.pressure, first.pressure)
+
+    def never(self, r_now, p_mean, t, p_init, warm):
+        raise ContactError("no solution")
+
+    monkeypatch.setitem(PositionCycle._CONTACT, cyc.level, never)
+    with pytest.raises(ContactError, match="no solution"):
+        cyc.solve_step(1)

@@ -114,6 +114,16 @@ def test_archard_rate_formula():
                                / 3e-17, rtol=1e-14)
     still = archard_wear([p], [solid[0]], [0.0], 1e-6, 0.0, 7e9, 7e9, 1e-11, 10.0, 3e-17)
     assert not still.rate.any() and not still.depth(1e6).any()
+    # the steps weighted by their share of the transit (cosine steps, docs/model.md §4): ¼ of
+    # the time solid, ¾ fluid; equal weights are the unweighted rates
+    args = ([p, p], solid, [0.0, 1e-6], 1e-6, 0.33, 7e9, 8e9, 1e-11, 10.0, 3e-17)
+    q = archard_wear(*args, weights=[0.25, 0.75])
+    np.testing.assert_allclose(q.solid, 0.5 * 0.33 / 7e9 * 10 * 1e-11 * 2e9 * 0.25, rtol=1e-14)
+    np.testing.assert_allclose(q.fluid, 0.5 * 0.33 / 7e9 * 1e-11 * 2e9 * 0.75, rtol=1e-14)
+    np.testing.assert_allclose(q.relax, w.relax * 0.5, rtol=1e-14)
+    even = archard_wear(*args, weights=[0.5, 0.5])
+    for a, b in ((even.solid, w.solid), (even.fluid, w.fluid), (even.relax, w.relax)):
+        np.testing.assert_allclose(a, b, rtol=1e-14)
 
 
 # ---- Miner, wear and pits through apply_cycles -------------------------------------------------

@@ -176,7 +176,7 @@ def test_a_run_reports_inside_its_blocks_and_is_silent_with_quiet(tmp_path, caps
     monkeypatch.setattr(progress, "LOG_INTERVAL_S", 0.0)      # every report, not every 10 s
     doc = tiny_doc(slide_roll=(0.3, 0.2))
     doc["life"] = {"cycles_M": 1.0, "block_M": 1.0, "max_splits": 2}
-    doc["window"] = {"n": 16, "steps": 3}
+    doc["window"] = {"n": 16, "steps": 3, "steps_per_peak_spacing": 0.25}   # 3 steps, not 24
     doc["stress"] = {"layers": 3}
     doc["body1"]["surface"]["corr_y_um"] = 300.0     # a window that does not hold it: warned
     scene = write_scene(tmp_path / "tiny.toml", doc)

