@@ -7,8 +7,8 @@ The surfaces are one realisation made on the ``--ref`` grid (default 256²) and 
 (antialiased) to each grid, so that a grid's difference is its discretisation, not another
 roughness sample. Each run uses the scene's settings otherwise (the converged default:
 adaptive blocks, implicit wear); ``--grids`` runs at the scene's ΔN, ``--blocks-M`` at the
-scene's grid. One rank, one process. Rows go to ``--csv`` as they finish; a re-run skips
-the runs already there (same case, k_lub, n and ΔN).
+scene's grid (those first). One rank, one process. Rows go to ``--csv`` as they finish; a
+re-run skips the runs already there (same case, k_lub, n and ΔN).
 
     python benchmarks/bench_wear_convergence.py --position 3 --k-lub 5e-11 --grids 64 128 \\
         --blocks-M 1 0.5 0.25 0.1 --cycles-M 3 --csv benchmarks/results/wear_convergence.csv
@@ -81,8 +81,9 @@ def main(argv=None) -> int:
     reference = tuple(body_surface(ref_scene, i, ref_grid) for i in (1, 2))
     path = Path(a.csv) if a.csv else None
     done = _done(path)
-    runs = [(n, base.life.block / 1e6) for n in a.grids]
-    runs += [(base.window.nx, b) for b in a.blocks_M if (base.window.nx, b) not in runs]
+    # the block lengths on the scene's grid first (the cheaper runs), then the other grids
+    runs = [(base.window.nx, b) for b in a.blocks_M]
+    runs += [(n, base.life.block / 1e6) for n in a.grids if (n, base.life.block / 1e6) not in runs]
     if path and not path.exists():
         path.parent.mkdir(parents=True, exist_ok=True)
         path.write_text(",".join(COLUMNS) + "\n")
