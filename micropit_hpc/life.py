@@ -13,8 +13,9 @@ the surfaces the previous one left, when in one go it would change the shape of 
 by more than ``max_wear_fraction`` of its initial R_q anywhere, or raise the largest damage of
 the intact material by more than ``max_damage_step``, or newly pit more than ``max_pit_step``
 of the window's columns. The sub-block is then cut to the wear limit, and
-halved while the damage rise or the new pits are too many, but never below ΔN/``max_splits``.
-ΔN stays the checkpoint and report interval.
+halved while the damage rise or the new pits are too many, but never below the smallest
+sub-block (:func:`smallest_sub_block`: ``min_sub_block``, the same for every ΔN, unless
+ΔN/``max_splits`` is larger). ΔN stays the checkpoint and report interval.
 
 The pit limit resolves the cascade: a pit unloads its columns onto its neighbours, whose
 damage rate then jumps, so the pits grow one generation per sub-block. The damage limit leaves
@@ -257,6 +258,13 @@ def _wear_limited(wear: WearRate, limit: float, n: float, integration: str,
     return lo
 
 
+def smallest_sub_block(life: LifeSpec) -> float:
+    """The smallest sub-block [cycles] of the adaptive split (module docstring): the scene's
+    ``life.min_sub_block_M`` [choice], or ΔN/``life.max_splits`` where that is larger (a
+    bound on the sub-blocks per block)."""
+    return max(life.min_sub_block, life.block / life.max_splits)
+
+
 def sub_block_cycles(state: LifeState, result: CycleResult, left: float, life: LifeSpec,
                      slab: Slab) -> float:
     """Cycles of the next sub-block: the adaptive split (module docstring) by the limits of
@@ -264,7 +272,7 @@ def sub_block_cycles(state: LifeState, result: CycleResult, left: float, life: L
     ``left`` in the paper's scheme (``integration = "paper"``)."""
     if life.integration == "paper":
         return left
-    floor = life.block / life.max_splits
+    floor = smallest_sub_block(life)
     n = left
     for bs, bc in zip(state.bodies, result.bodies, strict=True):
         if bs.rq0 > 0 and life.wear_integration != "implicit":
@@ -311,7 +319,7 @@ class WearSteps:
 #: update from the last solved rates, and the block is flagged (``wear_unresolved``).
 WEAR_BUDGET = 8
 
-#: The smallest wear step, as a share of the smallest sub-block ΔN/``life.max_splits``: a step
+#: The smallest wear step, as a share of the smallest sub-block (:func:`smallest_sub_block`): a step
 #: that does not converge is halved down to it, and accepted there.
 MIN_WEAR_STEP = 1.0 / 16.0
 
@@ -336,8 +344,9 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
     rates, a local error of (n/2)·|Δh(0)| at most); a step is halved while its solve does not
     converge (and later steps, this sub-block's and, through ``cap``, the block's next ones,
     stay below three quarters of it), and cut while its local error exceeds
-    ``life.wear_accuracy`` × R_q, down to :data:`MIN_WEAR_STEP` of ΔN/``life.max_splits``, where
-    it is accepted. The sub-block ends early, after at least ΔN/``life.max_splits`` cycles, once
+    ``life.wear_accuracy`` × R_q, down to :data:`MIN_WEAR_STEP` of the smallest sub-block
+    (:func:`smallest_sub_block`), where it is accepted. The sub-block ends early, after at
+    least the smallest sub-block, once
     its wear has changed a surface's shape by ``life.max_wear_fraction`` × R_q
     (:func:`shape_change`): the damage of the next sub-block is then evaluated on the run-in
     surfaces. Each solve is preconditioned by the half-spaces' elastic relief
@@ -352,7 +361,7 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
         # smooth bodies (nothing to relieve) or no wear: the explicit rate is exact
         return WearSteps(n, tuple(n * r.rate for r in rates0), n, 0, 0.0, cap)
     tol, accuracy = life.wear_tol * rq, life.wear_accuracy * rq
-    floor = min(life.block / life.max_splits, n)
+    floor = min(smallest_sub_block(life), n)
     smallest = MIN_WEAR_STEP * floor
     if proposal is None:
         top = max(shape_change(r.rate, keep) for r, keep in zip(rates0, intact, strict=True))

@@ -150,10 +150,10 @@ def item_list(ids: Sequence[int], show: int = 12) -> str:
 
 class RangeWarnings:
     """The run log's warnings after each block (a :class:`~micropit_hpc.runner.Handler`):
-    once per item and limit, a block whose adaptive split stopped at ``life.max_splits``
-    before its wear or pit limit was met (in the paper's integration, which does not split, a
-    block that went past them); and the block's one line on the model's range
-    (:func:`block_warning`). ``log`` prints on rank 0."""
+    once per item and limit, a block whose adaptive split stopped at its smallest sub-block
+    (:func:`~micropit_hpc.life.smallest_sub_block`) before its wear or pit limit was met (in
+    the paper's integration, which does not split, a block that went past them); and the
+    block's one line on the model's range (:func:`block_warning`). ``log`` prints on rank 0."""
 
     def __init__(self, life, log):
         self.log, self.life, self.study = log, life, None
@@ -187,8 +187,10 @@ class RangeWarnings:
                               "(life.integration = \"paper\"): its result depends on "
                               "life.block_M (docs/life.md, \"Two time integrations\")")
                 else:
-                    advice = (f"the split stopped at life.max_splits = {self.life.max_splits}. "
-                              f"Raise max_splits (or lower life.block_M) {why} (docs/life.md)")
+                    advice = (f"the split stopped at its smallest sub-block, life.min_sub_block_M"
+                              f" = {self.life.min_sub_block / 1e6:g} (or ΔN/life.max_splits = "
+                              f"{self.life.block / self.life.max_splits / 1e6:g} M where larger). "
+                              f"Lower it {why} (docs/life.md)")
                 self.log(f"warning: block {k}, {item_list(sorted(over))}: "
                          f"{did.format(f'{scale * over[worst]:.3g}')} (item {worst}), above "
                          f"{key} = {limit:g}; {advice}")

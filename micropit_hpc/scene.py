@@ -650,11 +650,21 @@ class LifeSpec:
         "max_pit_step", "float", "Split a block if it would newly pit more "
         "than this share of the window's columns (resolves the cascade of pits: a pit passes "
         "its load to its neighbours).", default=0.01, lo=0, hi=1, lo_open=True)
+    min_sub_block: float = setting(
+        "min_sub_block_M", "float", "[choice] The smallest sub-block, in millions of cycles, "
+        "the same whatever the block ΔN: the damage and pit limits halve a sub-block down to "
+        "it, and the implicit wear's shape limit ends none before it. It must resolve the "
+        "first pits, which form from lives below 10⁴ cycles on the paper's surfaces: at gear "
+        "position 5 (k_lub = 5e-11 s, 1 M cycles) A_p was 20.3 / 15.1 / 11.4 % and the wear "
+        "1.17 / 1.94 / 2.40 µm with 15625 / 3906 / 977 cycles (docs/performance.md §14). "
+        "Until 2026-11-25 it was ΔN/`max_splits`, which made the result depend on ΔN.",
+        "Mcycles", 1e6, default=0.001, lo=0, hi=1e6, lo_open=True)
     max_splits: int = setting(
-        "max_splits", "int", "At most this many sub-blocks per block (the "
-        "smallest sub-block is ΔN/max_splits). With 4 the running-in of Table 9 at k_lub = 1e-11 s "
-        "is not resolved (docs/life.md, \"Resolving the running-in\").",
-        default=64, lo=1, hi=100000)
+        "max_splits", "int", "At most this many sub-blocks per block: the smallest "
+        "sub-block is the larger of `min_sub_block_M` and ΔN/max_splits (with the defaults "
+        "`min_sub_block_M` rules for ΔN up to 4 M). With 4 the running-in of Table 9 at "
+        "k_lub = 1e-11 s is not resolved (docs/life.md, \"Resolving the running-in\").",
+        default=4096, lo=1, hi=100000)
     pit_contact: str = setting(
         "pit_contact", "str", "How a micropit enters the next contact "
         "solutions [choice]. `unloaded`: the pit's floor is never reached, so its columns "

@@ -18,6 +18,7 @@ from micropit_hpc.life import (
     initial_state,
     run_block,
     shape_change,
+    smallest_sub_block,
     sub_block_cycles,
 )
 from micropit_hpc.parallel import SerialComm
@@ -350,6 +351,24 @@ def test_a_block_records_the_largest_pit_step(tiny, monkeypatch):
         else:
             assert 0 < rec.pit_step <= life.max_pit_step
             assert rec.sub_blocks >= 1 / life.max_pit_step
+
+
+def test_the_smallest_sub_block_is_the_same_for_every_block_length():
+    """A damage rate that breaks the damage limit in any sub-block (every point fails within
+    100 cycles) is halved down to life.min_sub_block_M, the same at ΔN = 1 M and 0.25 M (a
+    floor of ΔN/max_splits made the first pits, and A_p, depend on ΔN: docs/performance.md
+    §14); ΔN/max_splits rules where it is larger."""
+    state, result, slab = _worn_pair(np.zeros((10, 10)))
+    rate = np.full((3, 10, 10), 1e-2)
+    result = dataclasses.replace(result, bodies=tuple(
+        dataclasses.replace(b, damage_rate=rate) for b in result.bodies))
+    for block in (1e6, 0.25e6):
+        life = LifeSpec(block=block)
+        assert smallest_sub_block(life) == life.min_sub_block == 1000.0
+        assert sub_block_cycles(state, result, block, life, slab) == 1000.0
+    coarse = LifeSpec(block=1e6, max_splits=64)
+    assert smallest_sub_block(coarse) == 1e6 / 64
+    assert sub_block_cycles(state, result, 1e6, coarse, slab) == 1e6 / 64
 
 
 def test_the_split_limits_the_share_of_newly_pitted_columns():

@@ -188,8 +188,8 @@ def _record(**kw) -> BlockRecord:
 @pytest.mark.parametrize("integration", ["adaptive", "paper"])
 def test_a_block_past_the_split_limits_is_told_how_its_scheme_stands(integration):
     """A block whose wear or pit step exceeds its limit: in the adaptive integration the split
-    stopped at max_splits (raise it); the paper's literal scheme (the `_paper` twins) never
-    splits, and is not told to raise max_splits."""
+    stopped at its smallest sub-block (lower it); the paper's literal scheme (the `_paper`
+    twins) never splits, and is not told to change its sub-blocks."""
     said = []
     warn = RangeWarnings(LifeSpec(integration=integration), said.append)
     warn.start(type("Study", (), {"z_max": 25e-6, "window_problems": []})(), 1, 0)
@@ -197,9 +197,11 @@ def test_a_block_past_the_split_limits_is_told_how_its_scheme_stands(integration
     assert len(said) == 2 and all(s.startswith("warning: block 1, item 0: one sub-block")
                                   for s in said)
     if integration == "paper":
-        assert all("does not split its blocks" in s and "max_splits" not in s for s in said)
+        assert all("does not split its blocks" in s and "sub-block" not in s.split(";")[1]
+                   for s in said)
     else:
-        assert all("the split stopped at life.max_splits = 64" in s for s in said)
+        assert all("the split stopped at its smallest sub-block, life.min_sub_block_M = "
+                   "0.001" in s for s in said)
 
 
 @pytest.mark.parametrize("kw,flag", [
