@@ -10,11 +10,12 @@ time. The scene's own surfaces and settings otherwise (the converged default). O
 from __future__ import annotations
 
 import argparse
-import csv
 import dataclasses
 import sys
 import time
 from pathlib import Path
+
+from table import emit, write_csv
 
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle
@@ -49,13 +50,8 @@ def main(argv=None) -> int:
                r.slope[0], r.slope[1], r.phi, r.sub_blocks, r.wear_cycles,
                time.perf_counter() - t0)
         rows.append(row)
-        print(",".join(f"{v:.5g}" if isinstance(v, float) else str(v) for v in row),
-              flush=True)
-    if a.csv:
-        with open(a.csv, "w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(COLUMNS)
-            w.writerows(rows)
+        emit(row)
+    write_csv(a.csv, COLUMNS, rows)
     return 0
 
 

@@ -14,11 +14,12 @@ switches the S–N line off (B = 10⁵ MPa) so that only wear acts. Rows go to s
 from __future__ import annotations
 
 import argparse
-import csv
 import dataclasses
 import sys
 import time
 from pathlib import Path
+
+from table import emit, write_csv
 
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle
@@ -65,13 +66,8 @@ def main(argv=None) -> int:
                        r.slope[1], r.Ap[0], r.Ap[1], r.phi, r.wear_cycles,
                        time.perf_counter() - t0)
                 rows.append(row)
-                print(",".join(f"{v:.5g}" if isinstance(v, float) else str(v) for v in row),
-                      flush=True)
-    if a.csv:
-        with open(a.csv, "w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(COLUMNS)
-            w.writerows(rows)
+                emit(row)
+    write_csv(a.csv, COLUMNS, rows)
     return 0
 
 

@@ -23,6 +23,8 @@ import sys
 import time
 from pathlib import Path
 
+from table import emit, line
+
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.plan import WorkItem, reference_half_width, window_grid
 from micropit_hpc.scene import load_scene
@@ -90,11 +92,10 @@ def main(argv=None) -> int:
     print(",".join(COLUMNS), flush=True)
 
     def out(row):
-        line = ",".join(f"{v:.5g}" if isinstance(v, float) else str(v) for v in row)
-        print(line, flush=True)
+        emit(row)
         if path:
             with open(path, "a") as f:
-                f.write(line + "\n")
+                f.write(line(row) + "\n")
     for k in a.k_lub:
         for n, block in runs:
             if (str(a.position), k, n, block) in done:

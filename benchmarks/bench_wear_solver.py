@@ -14,11 +14,12 @@ explicit step (no guess) with ``life.wear_tol`` × R_q. One rank. Rows to stdout
 from __future__ import annotations
 
 import argparse
-import csv
 import dataclasses
 import sys
 import time
 from pathlib import Path
+
+from table import emit, write_csv
 
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle
@@ -71,13 +72,8 @@ def main(argv=None) -> int:
             row = (n, share, sol.iterations, sol.converged, sol.residual / tol,
                    time.perf_counter() - t0)
             rows.append(row)
-            print(",".join(f"{v:.4g}" if isinstance(v, float) else str(v) for v in row),
-                  flush=True)
-    if a.csv:
-        with open(a.csv, "w", newline="") as f:
-            w = csv.writer(f)
-            w.writerow(COLUMNS)
-            w.writerows(rows)
+            emit(row)
+    write_csv(a.csv, COLUMNS, rows)
     return 0
 
 
