@@ -156,7 +156,9 @@ class RangeWarnings:
     block's one line on the model's range (:func:`block_warning`). ``log`` prints on rank 0."""
 
     def __init__(self, life, log):
+        from micropit_hpc.life import smallest_sub_block  # (life is the heavier module)
         self.log, self.life, self.study = log, life, None
+        self.floor = smallest_sub_block(life)
         why_wear = ("for a stable wear update" if life.wear_integration == "explicit" else
                     "to follow the running-in in finer steps")
         # (record field, limit, what one sub-block did, unit scale, key, why finer steps)
@@ -187,10 +189,10 @@ class RangeWarnings:
                               "(life.integration = \"paper\"): its result depends on "
                               "life.block_M (docs/life.md, \"Two time integrations\")")
                 else:
-                    advice = (f"the split stopped at its smallest sub-block, life.min_sub_block_M"
-                              f" = {self.life.min_sub_block / 1e6:g} (or ΔN/life.max_splits = "
-                              f"{self.life.block / self.life.max_splits / 1e6:g} M where larger). "
-                              f"Lower it {why} (docs/life.md)")
+                    which = ("life.min_sub_block_M" if self.floor == self.life.min_sub_block
+                             else "ΔN/life.max_splits")
+                    advice = (f"the split stopped at its smallest sub-block, {which} = "
+                              f"{self.floor / 1e6:g} M. Lower it {why} (docs/life.md)")
                 self.log(f"warning: block {k}, {item_list(sorted(over))}: "
                          f"{did.format(f'{scale * over[worst]:.3g}')} (item {worst}), above "
                          f"{key} = {limit:g}; {advice}")

@@ -201,7 +201,7 @@ def test_a_block_past_the_split_limits_is_told_how_its_scheme_stands(integration
                    for s in said)
     else:
         assert all("the split stopped at its smallest sub-block, life.min_sub_block_M = "
-                   "0.001" in s for s in said)
+                   "0.001 M" in s for s in said)
 
 
 @pytest.mark.parametrize("kw,flag", [
