@@ -51,6 +51,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from micropit_hpc.spectral import rfft_plan
+
 __all__ = ["ImplicitWear", "SpectralRelief", "backward_euler", "next_length"]
 
 #: Past iterates the Anderson least-squares step combines.
@@ -103,9 +105,12 @@ class SpectralRelief:
     def __init__(self, stiffness: np.ndarray, K0: float, shape: tuple[int, int],
                  share: float = RELIEF_SHARE):
         self.stiffness, self.K0, self.shape, self.share = stiffness, float(K0), shape, share
+        # the cached pre-planned real FFT of the window, as the half-spaces' own response
+        self._fft = rfft_plan(shape)
+        self._transfer = self._fft.interleaved(stiffness)
 
     def _apply(self, d: np.ndarray, n: float, v: np.ndarray) -> np.ndarray:
-        return v + n * d * np.fft.irfft2(self.stiffness * np.fft.rfft2(d * v), s=self.shape)
+        return v + n * d * self._fft.convolve(self._transfer, d * v)
 
     def solve(self, rates: Sequence, n: float) -> Callable[[tuple], tuple]:
         """M⁻¹ for a step of ``n`` cycles with the relief of ``rates`` (one
