@@ -38,6 +38,8 @@ def test_window_kinematics(tmp_path):
         first = -c.b + c.b / m if spacing == "uniform" else -c.b * math.cos(math.pi / (2 * m))
         assert cyc.centre(cyc.time(0)) == pytest.approx(first, rel=1e-12)
         assert cyc.centre(cyc.time(m - 1)) == pytest.approx(-first, rel=1e-12)
+        # the rounding bound of m ≤ 7 weights (a sine product each, 2 ulp) and their sum:
+        # below 7 · 3 · 1.1e-16 ≈ 2.3e-15
         assert cyc.weights.sum() == pytest.approx(1.0, rel=1e-14)
         # a step's weight is the time between the midpoints of its neighbours, in t_f
         edges = [0.0] + [0.5 * (cyc.time(j) + cyc.time(j + 1)) for j in range(m - 1)] + [cyc.t_f]
@@ -80,6 +82,7 @@ def test_slip_steps_bound_the_relative_slip_per_step_by_the_fewest_steps():
                 assert fewer > length
         assert cycle_module.slip_steps(c, 1.0, spacing) == 1             # slip < one length
         assert cycle_module.slip_steps(_contact(100e-6, 0.0), dx, spacing) == 1     # S = 0
+        # 7 weights of 2 ulp each and their sum: the rounding bound is about 2.3e-15
         assert cycle_module.step_weights(7, spacing).sum() == pytest.approx(1.0, rel=1e-14)
 
 

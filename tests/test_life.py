@@ -119,6 +119,9 @@ def test_archard_rate_formula():
     # the time solid, ¾ fluid; equal weights are the unweighted rates
     args = ([p, p], solid, [0.0, 1e-6], 1e-6, 0.33, 7e9, 8e9, 1e-11, 10.0, 3e-17)
     q = archard_wear(*args, weights=[0.25, 0.75])
+    # rtol 1e-14 (about 45 ulp) bounds these: products of under ten factors (an ulp each) and
+    # sums of two steps of a uniform field, whose shift to the material frame is exact to a
+    # few ulp whatever the summation order
     np.testing.assert_allclose(q.solid, 0.5 * 0.33 / 7e9 * 10 * 1e-11 * 2e9 * 0.25, rtol=1e-14)
     np.testing.assert_allclose(q.fluid, 0.5 * 0.33 / 7e9 * 1e-11 * 2e9 * 0.75, rtol=1e-14)
     np.testing.assert_allclose(q.relax, w.relax * 0.5, rtol=1e-14)
