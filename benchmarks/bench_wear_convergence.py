@@ -37,10 +37,12 @@ COLUMNS = ("scene", "position", "k_lub_s", "n", "block_M", "cycles_M", "wear_um"
            "wear_cycles", "wall_s")
 
 
-def _run(base, position, k_lub, n, block_M, cycles_M, reference, out):
+def _run(base, position, k_lub, n, block_M, cycles_M, reference, out, fatigue=True):
     scene = dataclasses.replace(
         base, window=dataclasses.replace(base.window, nx=n, ny=None),
         life=dataclasses.replace(base.life, block=block_M * 1e6))
+    if not fatigue:
+        scene = dataclasses.replace(scene, fatigue=dataclasses.replace(scene.fatigue, B=1e11))
     study = contact_study(scene)
     grid = window_grid(scene, reference_half_width(study))
     surfaces = tuple(s.resampled(grid) for s in reference)
@@ -74,6 +76,8 @@ def main(argv=None) -> int:
     ap.add_argument("--blocks-M", type=float, nargs="*", default=[1.0, 0.5, 0.25, 0.1])
     ap.add_argument("--cycles-M", type=float, default=3.0)
     ap.add_argument("--ref", type=int, default=256, help="grid of the surface realisation")
+    ap.add_argument("--no-fatigue", action="store_true",
+                    help="S–N intercept 1e5 MPa: no damage, no pits (the wear alone)")
     ap.add_argument("--csv", default=None)
     a = ap.parse_args(argv)
     base = load_scene(a.scene)
@@ -100,7 +104,8 @@ def main(argv=None) -> int:
         for n, block in runs:
             if (str(a.position), k, n, block) in done:
                 continue
-            _run(base, a.position, k, n, block, a.cycles_M, reference, out)
+            _run(base, a.position, k, n, block, a.cycles_M, reference, out,
+                 fatigue=not a.no_fatigue)
     return 0
 
 

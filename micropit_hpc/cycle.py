@@ -115,7 +115,9 @@ def contact_parallel(cells: int, mode: str | None = None) -> str:
 @dataclass(frozen=True)
 class StepFields:
     """Contact at one time step (SI, window frame). ``traction1``/``traction2`` are the
-    friction tractions on each body along +x, q_i = μ p sign(u_j − u_i) (docs/model.md §1)."""
+    friction tractions on each body along +x, q_i = μ p sign(u_j − u_i) (docs/model.md §1).
+    ``pit_load``: the share of the step's load that the contact solve put on pitted columns
+    and that :meth:`PositionCycle._unload_pits` moved off them (0 without pits)."""
 
     position: int
     step: int
@@ -131,6 +133,7 @@ class StepFields:
     iterations: int
     traction1: np.ndarray
     traction2: np.ndarray
+    pit_load: float = 0.0
 
     @property
     def mu_mean(self) -> float:
@@ -160,7 +163,10 @@ class CycleResult:
     """A load-cycle evaluation: both bodies, the load fraction carried by solid contact φ
     (pressure-weighted over the steps), the solid-contact area fraction, the steps used and
     the wall time. ``plastic_share``: the share of the contact area (p > 0, all steps
-    together) where the pressure is at the cap p_lim, i.e. where the material yields."""
+    together) where the pressure is at the cap p_lim, i.e. where the material yields.
+    ``pit_load``: the share of the load that the contact solves put on pitted columns and
+    that the unloading moved to the other columns as a uniform (film) pressure
+    (:attr:`StepFields.pit_load`, weighted like φ)."""
 
     bodies: tuple[BodyCycle, BodyCycle]
     phi: float
@@ -168,6 +174,7 @@ class CycleResult:
     steps: int
     wall_s: float
     plastic_share: float = 0.0
+    pit_load: float = 0.0
 
 
 def micro_cycles(cycle: PositionCycle, body: int, lam_c: float) -> float:
@@ -446,8 +453,9 @@ class PositionCycle:
             if warm is not None:
                 warm.clear()
                 warm.update(fresh)
+        pit_load = 0.0
         if self.pits is not None and p_mean > 0.0:
-            pressure, clearance = self._unload_pits(pressure, clearance, p_mean, t)
+            pressure, clearance, pit_load = self._unload_pits(pressure, clearance, p_mean, t)
         solid = clearance <= lub.h_min if self.level != "smooth" else np.zeros(g.shape, bool)
         friction = np.where(solid, lub.mu_bl, lub.mu_ehl)
         q = friction * pressure
@@ -455,7 +463,7 @@ class PositionCycle:
         return StepFields(position=self.position, step=step, t=t, x_c=x_c, p_mean=p_mean,
                           level=self.level, pressure=pressure, clearance=clearance,
                           solid=solid, friction=friction, phi=phi, iterations=iters,
-                          traction1=s1 * q, traction2=-s1 * q)
+                          traction1=s1 * q, traction2=-s1 * q, pit_load=pit_load)
 
     def pit_mask(self, t: float) -> np.ndarray:
         """The columns of the window over a pit of either body at time t (each body's pits
@@ -472,10 +480,19 @@ class PositionCycle:
         mean p̄ restored on the other columns, and no solid contact there. When the intact
         columns cannot carry p̄ below p_lim (the window is mostly pitted), they carry p_lim and
         the rest of the load is spread evenly over the pit floors, which are then the
-        surface: the load balance holds whatever the pitted fraction."""
+        surface: the load balance holds whatever the pitted fraction.
+
+        The solve saw the pitted columns at the height of the surface around them
+        (:func:`~micropit_hpc.life.contact_surfaces`), so an asperity that pitted still held
+        the counterface off its neighbours there; the load it took goes back to every other
+        column as the same added pressure, a film's, which wears at k_lub and not at
+        f_w k_lub. Returns the pressure, the clearance and that load's share of the step's
+        (:attr:`StepFields.pit_load`; docs/life.md, "The model's range")."""
         mask = self.pit_mask(t)
         if not mask.any():
-            return pressure, clearance
+            return pressure, clearance, 0.0
+        total = float(pressure.sum())
+        moved = float(pressure[mask].sum()) / total if total > 0.0 else 0.0
         free = ~mask
         n, n_free = pressure.size, int(free.sum())
         p = np.zeros_like(pressure)
@@ -485,7 +502,7 @@ class PositionCycle:
         else:
             p[free] = self.p_lim
             p[mask] = (p_mean * n - self.p_lim * n_free) / (n - n_free)
-        return p, clearance
+        return p, clearance, moved
 
     # ---- stresses ----------------------------------------------------------------------------
     def material_tractions(self, fields: StepFields, body: int) -> tuple[np.ndarray, np.ndarray]:
@@ -755,6 +772,8 @@ class PositionCycle:
         weights = w * np.array([f.p_mean for f in fields])
         phi = (float((weights * [f.phi for f in fields]).sum() / weights.sum())
                if weights.any() else 0.0)
+        pit_load = (float((weights * [f.pit_load for f in fields]).sum() / weights.sum())
+                    if weights.any() else 0.0)
         solid = float(sum(wj * f.solid.mean() for wj, f in zip(w, fields, strict=True)))
         at_lim = (1.0 - 1e-9) * self.p_lim
         in_contact = sum(wj * np.count_nonzero(f.pressure > 0.0)
@@ -785,4 +804,5 @@ class PositionCycle:
                                  tau_smooth=tau_smooth, n_micro=n_mu, lam_c=lam_c,
                                  damage_low=np.broadcast_to(low, rate.shape)))
         return CycleResult(bodies=tuple(out), phi=phi, solid_fraction=solid, steps=self.steps,
-                           wall_s=time.perf_counter() - t0, plastic_share=plastic)
+                           wall_s=time.perf_counter() - t0, plastic_share=plastic,
+                           pit_load=pit_load)

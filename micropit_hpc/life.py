@@ -467,6 +467,7 @@ def run_block(cycle: PositionCycle, state: LifeState, life: LifeSpec,
     slab = cycle.slab
     left = life.block if cycles is None else cycles
     subs, phi_acc, plastic_acc, n_done, wear_step, pit_step = 0, 0.0, 0.0, 0.0, 0.0, 0.0
+    pit_load_acc = 0.0
     new_pits, low_pits = [0, 0], [0, 0]
     added, low_added, deep = [0.0, 0.0], [0.0, 0.0], [0.0, 0.0]
     result, warm = None, {}
@@ -508,6 +509,7 @@ def run_block(cycle: PositionCycle, state: LifeState, life: LifeSpec,
             low_added[i] += st.low_damage_added
         phi_acc += n * result.phi
         plastic_acc += n * result.plastic_share
+        pit_load_acc += n * result.pit_load
         n_done += n
         left -= n
         subs += 1
@@ -531,5 +533,6 @@ def run_block(cycle: PositionCycle, state: LifeState, life: LifeSpec,
         plastic_share=plastic_acc / n_done, deep_damage=(deep[0], deep[1]),
         slope=tuple(rms_slope(_around_pits(bs), cycle.grid.dx) for bs in b),
         wear_cycles=wear_cycles, wear_residual=wear_residual, wear_fallback=fallback / n_done,
-        pit_depth_max=tuple(float(bs.pit_depth.max()) for bs in b))
+        pit_depth_max=tuple(float(bs.pit_depth.max()) for bs in b),
+        pit_load=pit_load_acc / n_done)
     return rec

@@ -19,6 +19,15 @@ summary.csv and results.h5) and into one warning line per block for the run log:
 * ``wear_unresolved``: the implicit wear spent its budget of contact-only load cycles in a
   sub-block (``life.wear_max_iter`` × :data:`~micropit_hpc.life.WEAR_BUDGET`) and integrated
   the rest of it with the cell-relaxed update (a wear far faster than the block resolves).
+* ``pit_load``: more than a quarter of the contact load fell on pitted columns in the
+  block's solves (:attr:`~micropit_hpc.state.BlockRecord.pit_load`). With
+  ``life.pit_contact = "unloaded"`` the contact is solved on the surface around the pits, so
+  an asperity that pitted keeps holding the counterface off the surface beside it; the load
+  it takes is then handed to the other columns as a film's uniform pressure, which wears at
+  k_lub instead of f_w k_lub and loads no asperity. Where that load is a large share, the
+  wear and the later damage follow that rule (a choice of this model, not the paper's) and the
+  grid: the pitted columns at the tips carry more of it on finer grids (docs/performance.md
+  §14).
 * ``window``: a synthetic surface's correlation lengths do not fit the window (L_x ≥ 4 β_x and
   L_y ≥ 2 β_y); one ridge spans the window and its R_q is not the surface's.
 """
@@ -33,7 +42,8 @@ __all__ = ["LIMITS", "RangeWarnings", "block_flags", "block_warning", "item_list
 
 #: The limits of the model's range (module docstring).
 LIMITS = {"saturated_Ap_pct": 90.0, "low_cycle_share": 0.10, "plastic_share": 0.5,
-          "deep_damage_ratio": 1e-3, "window_x_corr": 4.0, "window_y_corr": 2.0}
+          "deep_damage_ratio": 1e-3, "window_x_corr": 4.0, "window_y_corr": 2.0,
+          "pit_load_share": 0.25}
 
 
 def window_problems(scene, grid) -> list[str]:
@@ -76,6 +86,8 @@ def block_flags(rec, z_max: float, window_ok: bool = True) -> list[str]:
         flags.append("window")
     if rec.wear_fallback > 0.0:
         flags.append("wear_unresolved")
+    if rec.pit_load > lim["pit_load_share"]:
+        flags.append("pit_load")
     return flags
 
 
@@ -131,6 +143,12 @@ def block_warning(block: int, records: Mapping[int, object], z_max: float,
                          f"{_items(ids)} and integrated up to {100 * v:.3g} % of the block "
                          f"(item {i}) with the cell-relaxed update, whose depth follows the "
                          "cell size: lower life.block_M or wear.k_lub_s")
+        elif flag == "pit_load":
+            v, i = worst(ids, lambda r: r.pit_load)
+            parts.append(f"more than {100 * lim['pit_load_share']:g} % of the contact load fell "
+                         f"on pitted columns on {_items(ids)}, up to {100 * v:.3g} % (item {i}), "
+                         "and was handed to the film (life.pit_contact = \"unloaded\"): the "
+                         "wear and later damage there follow that rule and the grid")
         elif flag == "window":
             parts.append("the window does not hold the surfaces' correlation lengths "
                          "(see the set-up warning)")

@@ -140,7 +140,12 @@ class BlockRecord:
     residual max |n Δh(w) − w| of an accepted step over R_q (above ``life.wear_tol`` where a
     step of the smallest length did not converge); ``wear_fallback``, the share of the block's
     cycles whose wear the relaxed update integrated because a sub-block spent its budget of
-    contact-only cycles (:data:`micropit_hpc.life.WEAR_BUDGET`)."""
+    contact-only cycles (:data:`micropit_hpc.life.WEAR_BUDGET`).
+
+    ``pit_load``: the share of the contact load that the solves put on pitted columns and that
+    the unloading (``life.pit_contact = "unloaded"``) moved to the other columns as a film's
+    pressure (:attr:`micropit_hpc.cycle.CycleResult.pit_load`; the block's evaluations,
+    weighted by their cycles)."""
 
     block: int = unit("1")
     cycles: float = unit("1")
@@ -164,6 +169,7 @@ class BlockRecord:
     wear_cycles: int = unit("1", 0)
     wear_residual: float = unit("1", 0.0)
     wear_fallback: float = unit("1", 0.0)
+    pit_load: float = unit("1", 0.0)
 
 
 def _kind(f) -> str:

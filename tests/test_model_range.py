@@ -212,10 +212,12 @@ def test_a_block_past_the_split_limits_is_told_how_its_scheme_stands(integration
     ({"deep_damage": (2e-3, 0.0)}, "deep_layer"),
     ({"pit_depth_max": (0.0, 30e-6)}, "pits_below_layers"),
     ({"wear_fallback": 0.25}, "wear_unresolved"),
+    ({"pit_load": 0.26}, "pit_load"),
 ])
 def test_each_limit_raises_its_flag_and_one_warning_line(kw, flag):
     inside = _record(Ap=(89.9, 1.0), low_cycle_damage=(0.1, 0.1), low_cycle_pits=(0.1, 0.0),
-                     plastic_share=0.5, deep_damage=(1e-3, 1e-3), pit_depth_max=(25e-6, 0.0))
+                     plastic_share=0.5, deep_damage=(1e-3, 1e-3), pit_depth_max=(25e-6, 0.0),
+                     pit_load=LIMITS["pit_load_share"])
     assert block_flags(inside, 25e-6) == [] and block_warning(3, {0: inside}, 25e-6) is None
     out = _record(**kw)
     assert block_flags(out, 25e-6) == [flag]

@@ -56,6 +56,30 @@ def test_pits_carry_no_load_and_move_with_their_surface(cycle):
         cycle.set_surfaces(cycle.surfaces)
 
 
+def test_the_load_handed_from_the_pits_to_the_film_is_reported(cycle):
+    """The solve sees the surface around the pits, so the pressure it put on the pitted
+    columns is that of the same step without pits; its share of the load is what the
+    unloading hands to the film (StepFields.pit_load), and the load-cycle evaluation weighs
+    the steps' shares like φ."""
+    g = cycle.grid
+    cycle.set_surfaces(cycle.surfaces)
+    free = cycle.solve_step(4)
+    top = free.pressure >= np.quantile(free.pressure, 0.95)   # the most loaded 5 % of columns
+    assert top.any() and not top.all()
+    shift = round(cycle.slip(1, free.t) / g.dx)
+    cycle.set_surfaces(cycle.surfaces, pits=(np.roll(top, -shift, axis=0), np.zeros_like(top)))
+    try:
+        f = cycle.solve_step(4)
+        expected = free.pressure[top].sum() / free.pressure.sum()
+        assert 0.1 < expected < 1.0
+        # the same solve (cold start, same surfaces): its pressures to the solver's tolerance
+        assert f.pit_load == pytest.approx(expected, rel=1e-6)
+        assert np.all(f.pressure[top] == 0.0)
+    finally:
+        cycle.set_surfaces(cycle.surfaces)
+    assert free.pit_load == 0.0
+
+
 def test_a_mostly_pitted_window_still_carries_the_load(cycle):
     """When the intact columns cannot carry p̄ below p_lim, they carry p_lim and the pit floors
     the rest: the load never vanishes (it did when the pits of both bodies covered the
