@@ -37,7 +37,10 @@ COLUMNS = ("scene", "position", "k_lub_s", "n", "block_M", "cycles_M", "wear_um"
            "wear_cycles", "wall_s")
 
 
-def _run(base, position, k_lub, n, block_M, cycles_M, reference, out, fatigue=True):
+def item_run(base, position, k_lub, n, block_M, reference, fatigue=True) -> ItemRun:
+    """One work item of ``base`` on the n² grid of the same window, ΔN = ``block_M`` M cycles,
+    on the ``reference`` surfaces resampled (:func:`reference_surfaces`); ``fatigue`` False: an
+    S–N intercept of 1e5 MPa (no damage, no pits)."""
     scene = dataclasses.replace(
         base, window=dataclasses.replace(base.window, nx=n, ny=None),
         life=dataclasses.replace(base.life, block=block_M * 1e6))
@@ -46,7 +49,19 @@ def _run(base, position, k_lub, n, block_M, cycles_M, reference, out, fatigue=Tr
     study = contact_study(scene)
     grid = window_grid(scene, reference_half_width(study))
     surfaces = tuple(s.resampled(grid) for s in reference)
-    run = ItemRun(scene, WorkItem(0, position, k_lub, 1.0, 0), base=study, surfaces=surfaces)
+    return ItemRun(scene, WorkItem(0, position, k_lub, 1.0, 0), base=study, surfaces=surfaces)
+
+
+def reference_surfaces(base, ref: int):
+    """Both bodies' surfaces of ``base`` made on the ref² grid of its window."""
+    ref_scene = dataclasses.replace(base, window=dataclasses.replace(base.window, nx=ref,
+                                                                      ny=None))
+    ref_grid = window_grid(ref_scene, reference_half_width(contact_study(ref_scene)))
+    return tuple(body_surface(ref_scene, i, ref_grid) for i in (1, 2))
+
+
+def _run(base, position, k_lub, n, block_M, cycles_M, reference, out, fatigue=True):
+    run = item_run(base, position, k_lub, n, block_M, reference, fatigue)
     t0, subs, wear_cycles = time.perf_counter(), 0, 0
     while run.state.cycles < cycles_M * 1e6 * (1 - 1e-9):
         rec = run.run_block(min(run.life.block, cycles_M * 1e6 - run.state.cycles))
@@ -81,10 +96,7 @@ def main(argv=None) -> int:
     ap.add_argument("--csv", default=None)
     a = ap.parse_args(argv)
     base = load_scene(a.scene)
-    ref_scene = dataclasses.replace(base, window=dataclasses.replace(base.window, nx=a.ref,
-                                                                      ny=None))
-    ref_grid = window_grid(ref_scene, reference_half_width(contact_study(ref_scene)))
-    reference = tuple(body_surface(ref_scene, i, ref_grid) for i in (1, 2))
+    reference = reference_surfaces(base, a.ref)
     path = Path(a.csv) if a.csv else None
     done = _done(path)
     # the block lengths on the scene's grid first (the cheaper runs), then the other grids
