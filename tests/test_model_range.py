@@ -251,7 +251,11 @@ def test_a_run_reports_the_range_in_summary_log_and_results(tmp_path, capsys):
     assert len(lines) == len({r["cycles"] for r in flagged})
     with h5py.File(tmp_path / "out" / "results.h5", "r") as f:
         flags = [s.decode() for s in f["history/item_00000/flags"][()]]
+        pit_load = f["history/item_00000/pit_load"][()]
     assert flags == [r["flags"] for r in rows if r["body"] == "1"]
+    # a third of the window pits in the first block; the pitted tips then take the load
+    assert float(rows[0]["Ap_pct"]) > 10.0 and pit_load[-1] > LIMITS["pit_load_share"]
+    assert "pit_load" in flags[-1]
 
 
 def test_the_scene_keys_reach_the_life_loop():
