@@ -125,3 +125,26 @@ def test_a_coarse_scan_that_puts_the_root_elsewhere_is_corrected_on_the_window(c
     assert 0.0 < plain.phi < 1.0
     assert sol.phi == pytest.approx(plain.phi, rel=1e-9)
     assert np.abs(sol.pressure - plain.pressure).max() < 1e-6 * plain.pressure.max()
+
+
+def test_a_failing_coarse_scan_falls_back_to_the_scan_on_the_window(monkeypatch):
+    """A coarse solve of the φ scan that fails (ContactError) leaves the scan to the window:
+    the plain scan's answer, every trial on the window."""
+    g, (z1, z2) = random_pair(256)
+    fft = rfft_plan(g.shape)
+    r = (fft.forward(-z1), fft.forward(-z2))
+    monkeypatch.setattr(mixed, "SCAN_LEVELS", 0)
+    plain = mixed_model(g, h_mean=1e-12).solve(r, r, 1.0e9, 5e-5)
+    monkeypatch.setattr(mixed, "SCAN_LEVELS", 3)
+
+    def failing_on_coarse(gap0, hs, *args, **kwargs):
+        if hs.grid.nx < g.nx:
+            raise dry.ContactError("coarse solve failed (test)")
+        return solve_dry_contact(gap0, hs, *args, **kwargs)
+
+    monkeypatch.setattr(mixed, "solve_dry_contact", failing_on_coarse)
+    model = mixed_model(g, h_mean=1e-12)
+    sol = model.solve(r, r, 1.0e9, 5e-5)
+    assert _fine_solves(model) == list(mixed.PHI_SCAN)
+    assert sol.phi == plain.phi == 1.0
+    assert np.array_equal(sol.pressure, plain.pressure)

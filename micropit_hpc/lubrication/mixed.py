@@ -45,6 +45,7 @@ import numpy as np
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.lubrication import rheology
 from micropit_hpc.lubrication.dry import (
+    ContactError,
     ElasticHalfSpaces,
     coarse_levels,
     restrict,
@@ -401,7 +402,8 @@ class MixedLubrication:
         is the whole window's lubricated clearance restricted by full weighting
         (:func:`~.dry.restrict`), each solve cold (coarse to fine) at the scene's tolerance,
         serial on every rank alike (the decisions taken from it are the same on every rank of
-        a slab). None when the window is not coarsened (every trial solved on it)."""
+        a slab). None when the window is not coarsened, or when a coarse solve fails (the
+        same on every rank): every trial is then solved on the window."""
         levels, hs = self._scan_grid()
         if not levels:
             return None
@@ -412,8 +414,11 @@ class MixedLubrication:
             g = fft.inverse(clearance_spectrum(trial))
             for _ in range(levels):
                 g = restrict(g)
-            sol = solve_dry_contact(g, hs, trial * p_mean, p_lim=self.p_lim, tol=prm.tol,
-                                    max_iter=prm.max_iter)
+            try:
+                sol = solve_dry_contact(g, hs, trial * p_mean, p_lim=self.p_lim, tol=prm.tol,
+                                        max_iter=prm.max_iter)
+            except ContactError:    # the coarse grid is only a guide: scan on the window
+                return None
             state["iters"] += sol.iterations
             c_rho = float(rheology.density_correction(trial * p_mean))
             f = float(np.maximum(sol.gap, 0.0).sum() / N) - c_rho * self.h_mean
