@@ -22,7 +22,12 @@ reference whose residual stalls above it fails within 4000 iterations and the ne
 3×, 10× is taken), then for each tolerance of ``--tols`` the cold solve "before" (:data:`BEFORE`:
 the solver as it was) and "after" (the defaults), each timed as the median of ``--repeat``
 solves, with its iterations (all levels; the finest grid's in brackets) and the relative L2
-pressure error ‖p − p_ref‖/‖p_ref‖. One core. Prints a markdown table with date and commit.
+pressure error ‖p − p_ref‖/‖p_ref‖, the fine-equivalent iterations (each coarse level's
+iterations times its share of the fine grid's points, added to the fine grid's: the solve's
+cost in fine iterations) and each coarse level's iterations. One core. Prints a markdown table
+with date and commit. ``--coarse-tol`` and ``--coarsest`` set ``dry.COARSE_TOL`` and
+``dry.COARSEST`` for "after" (the variants of the coarse-to-fine start compared in
+docs/performance.md §11).
 Run "before" with ``MICROPIT_FFTW_PLANNER=estimate`` and ``--only before`` for the plans as
 they were, "after" with ``--only after`` once ``python -m micropit_hpc.spectral plan …`` has
 measured this machine's plans. Timings, not tests.
@@ -91,10 +96,26 @@ def gear_problem(n: int, position: int = 3):
 BEFORE = {"TOLERANCE_POINTS": 0, "RESET_ON_ENTRY": True, "COARSEST": 0}
 
 
+#: (points per side, iterations) of each coarse level of the last :func:`solve`, coarsest first
+LEVELS: list[tuple[int, int]] = []
+
+
+def _logged(gap0, hs, *args, **kwargs):
+    """dry.solve_dry_contact, recording the coarse levels' solves (those of
+    ``dry._coarse_start``, called with ``coarsest=0``) in :data:`LEVELS`."""
+    sol = solve_dry_contact(gap0, hs, *args, **kwargs)
+    if kwargs.get("coarsest") == 0:
+        LEVELS.append((hs.grid.nx, sol.iterations))
+    return sol
+
+
 def solve(problem, tol, before: bool):
     """One cold solve, the old way (``before``) or the new one."""
     gap0, hs, P, p_lim = problem
     saved = {k: getattr(dry, k) for k in BEFORE}
+    saved["solve_dry_contact"] = dry.solve_dry_contact
+    dry.solve_dry_contact = _logged
+    LEVELS.clear()
     if before:
         for k, v in BEFORE.items():
             setattr(dry, k, v)
@@ -103,6 +124,13 @@ def solve(problem, tol, before: bool):
     finally:
         for k, v in saved.items():
             setattr(dry, k, v)
+
+
+def fine_equivalent(sol, n: int) -> float:
+    """The solve's iterations weighted by their cost: the fine grid's, plus each coarse
+    level's times (its points / the fine grid's), from :data:`LEVELS`."""
+    return (sol.iterations - sol.coarse_iterations
+            + sum(it * (m / n) ** 2 for m, it in LEVELS))
 
 
 def reference(problem, tol):
@@ -136,14 +164,23 @@ def main() -> None:
     ap.add_argument("--unscaled", action="store_true",
                     help="'after' stops at ε ≤ tol on every grid (dry.TOLERANCE_POINTS = 0): "
                          "the error per unit residual, from which the rule's exponent comes")
+    ap.add_argument("--coarse-tol", type=float, default=None,
+                    help="'after' with this dry.COARSE_TOL (the coarse levels' tolerance)")
+    ap.add_argument("--coarsest", type=int, default=None,
+                    help="'after' with this dry.COARSEST (points per side of the coarsest level)")
     args = ap.parse_args()
     if args.unscaled:
         dry.TOLERANCE_POINTS = 0
+    if args.coarse_tol is not None:
+        dry.COARSE_TOL = args.coarse_tol
+    if args.coarsest is not None:
+        dry.COARSEST = args.coarsest
     print(f"cold dry contact solves, {args.surface} surface, {datetime.date.today()}, commit "
           f"{source_commit()}, one core, median of {args.repeat}\n")
-    print("| grid | solver | tol | iterations (fine) | time [s] | ms per fine it. | "
-          "pressure error | contact area | plastic |")
-    print("|---|---|---|---|---|---|---|---|---|")
+    print(f"dry.COARSEST = {dry.COARSEST}, dry.COARSE_TOL = {dry.COARSE_TOL} ('after')\n")
+    print("| grid | solver | tol | iterations (fine) | fine-equivalent | coarse levels | "
+          "time [s] | ms per fine it. | pressure error | contact area | plastic |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for n in args.sizes:
         problem = (random_problem(n, args.pressure) if args.surface == "random"
                    else gear_problem(n))
@@ -163,7 +200,9 @@ def main() -> None:
                 fine = sol.iterations - sol.coarse_iterations
                 err = float(np.linalg.norm(sol.pressure - ref)) / norm
                 plastic = float(np.mean(sol.pressure >= problem[3]))
-                print(f"| {n}² | {name} | {tol:.0e} | {sol.iterations} ({fine}) | {t:.3f} | "
+                levels = " ".join(f"{m}²:{it}" for m, it in LEVELS) or "none"
+                print(f"| {n}² | {name} | {tol:.0e} | {sol.iterations} ({fine}) | "
+                      f"{fine_equivalent(sol, n):.1f} | {levels} | {t:.3f} | "
                       f"{1e3 * t / max(fine, 1):.2f} | {err:.2e} | "
                       f"{100 * sol.area_fraction:.1f} % | {100 * plastic:.1f} % |", flush=True)
 

@@ -278,3 +278,47 @@ def test_steps_raised_by_the_kinematics_are_shared_over_the_ranks():
     ok = ok and len(b) == one.steps and all(
         np.array_equal(x.pressure, y.pressure) and x.t == y.t for x, y in zip(a, b, strict=True))
     assert agree(comm, ok)
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.parametrize("h_mean", [1e-12, 0.1e-6])
+def test_the_coarse_phi_scan_on_two_ranks_equals_one_rank(h_mean, monkeypatch):
+    """The mixed model's φ scan made on the coarsened window (every rank alike, serial) and
+    its bracket solved over the slabs: φ, pressure and clearance equal to the one-rank
+    solution to 1e-12, where the root is φ = 1 and between two trials."""
+    from helpers import mixed_settings, random_pair
+    from mpi4py import MPI
+
+    from micropit_hpc.lubrication import mixed
+    from micropit_hpc.lubrication.mixed import MixedLubrication
+    from micropit_hpc.spectral import rfft_plan
+
+    monkeypatch.setattr(mixed, "SCAN_POINTS", 32)      # 128² → 32² (SCAN_LEVELS 3: two halvings)
+    g, (z1, z2) = random_pair(128)
+    fft = rfft_plan(g.shape)
+    r = (fft.forward(-z1), fft.forward(-z2))
+
+    def model(slab=None):
+        return MixedLubrication(g, geometry="line", load=3e5, R=0.01, b=2e-4, u1=2.3, u2=1.7,
+                                h_mean=h_mean, E_prime=E_PRIME,
+                                **mixed_settings(0.05, 20e-9, 4.2e9), slab=slab)
+
+    one, split = model(), model(_slab(g))
+    a = one.solve(r, r, 1.0e9, 5e-5)
+    b = split.solve(r, r, 1.0e9, 5e-5)
+    # the same film balances in the same order; the coarse ones bit for bit (every rank
+    # solves them alone), those on the window, and the root search's trial fractions, to
+    # round-off (summed over the slabs)
+    same = len(split.last_scan) == len(one.last_scan) and all(
+        x[1] == y[1] and (x == y if x[1] else abs(x[0] - y[0]) <= RTOL
+                          and abs(x[2] - y[2]) <= 1e-9 * abs(y[2]))
+        for x, y in zip(split.last_scan, one.last_scan, strict=False))
+    if MPI.COMM_WORLD.rank == 0:
+        print(f"coarse φ scan, h̄ = {h_mean:.2g}: φ {a.phi:.6g} / {b.phi:.6g}; "
+              f"{one.last_scan} / {split.last_scan}")
+    ok = (one._scan_grid()[0] == 2 and same
+          and any(levels for _, levels, _ in one.last_scan)
+          and (a.phi == 1.0 if h_mean == 1e-12 else 0.0 < a.phi < 1.0)
+          and abs(b.phi - a.phi) <= RTOL and rel(b.pressure, a.pressure) <= RTOL
+          and rel(b.clearance, a.clearance) <= RTOL)
+    assert agree(MPI.COMM_WORLD, ok)

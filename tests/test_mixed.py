@@ -12,7 +12,12 @@ from helpers import E_PRIME, SOLVER, mixed_model, mixed_settings, random_pair
 from micropit_hpc.hertz import elliptical_contact
 from micropit_hpc.lubrication import rheology
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
-from micropit_hpc.lubrication.mixed import MixedLubrication, restore_mean, solve_dispersion
+from micropit_hpc.lubrication.mixed import (
+    MixedLubrication,
+    restore_mean,
+    solve_dispersion,
+    solve_dispersion_rows,
+)
 from micropit_hpc.spectral import Grid, rfft_plan
 
 
@@ -112,6 +117,23 @@ def test_dispersion_relation_residual_and_branch():
                                     eta_x, eta_y)
         assert res < 1e-10
         assert psi.imag.min() >= -1e-9 * np.abs(psi).max()
+
+
+@pytest.mark.parametrize("shape", [(64, 32), (65, 33), (2, 8)])
+def test_dispersion_on_the_positive_rows_mirrored_equals_the_whole_spectrum(shape):
+    """ψ(−a, k_y) = −conj ψ(a, k_y): the half spectrum solved on its rows k_x ≥ 0 and
+    mirrored is the whole spectrum's solution bit for bit (even and odd nx; 2 rows: no pair,
+    the whole spectrum), for sliding either way and viscous to inviscid numbers."""
+    g = Grid(shape[0], shape[1], 3.7e-4, 3.7e-4)
+    kx, ky = g.kx + 0 * g.ky, g.ky + 0 * g.kx
+    ub, h, Ep, B = 2.0, 0.7e-6, E_PRIME * 1.0, 17e9
+    for ui, eta_x, eta_y in ((2.4, 7.5, 130.0), (1.6, 30.0, 300.0), (2.4, 1e8, 1e8),
+                             (1.6, 1e-3, 1e-3)):
+        args = (kx * ui / ub, Ep * h**3 / (48 * ub), h * Ep / (4 * B), ky, eta_x, eta_y)
+        whole, res = solve_dispersion(*args)
+        rows, res_rows = solve_dispersion_rows(*args)
+        assert np.array_equal(rows.view(np.uint64), whole.view(np.uint64))
+        assert res_rows == res
 
 
 def test_thick_film_has_no_solid_contact():

@@ -57,3 +57,94 @@ def test_intermediate_film_with_the_coarse_start_balances_the_flow_as_before(mon
     # same root, and pressures within the bound of the dry solves of test_mixed
     assert multi.phi == pytest.approx(single.phi, rel=1e-6)
     assert np.abs(multi.pressure - single.pressure).max() < 1e-6 * single.pressure.max()
+
+
+def _fine_solves(model) -> list[float]:
+    """The trial fractions of the last solve's film balances made on the window itself
+    (the loaded ones: φ = 0 needs no contact solve)."""
+    return [phi for phi, levels, _ in model.last_scan if levels == 0 and phi > 0]
+
+
+@pytest.mark.parametrize("h_mean", [1e-12, 0.1e-6, 0.35e-6])
+def test_the_coarse_phi_scan_gives_the_plain_scans_root_and_pressures(h_mean, monkeypatch):
+    """On 256² (the φ scan on 128², then only its bracket on the window): the same load
+    fraction and pressures as the scan made on the window at every trial, where the root is
+    φ = 1 (one loaded solve on the window instead of four), between two trials of the scan
+    (0.25 < φ < 0.5) and below the first (φ < 0.25)."""
+    g, (z1, z2) = random_pair(256)
+    fft = rfft_plan(g.shape)
+    r = (fft.forward(-z1), fft.forward(-z2))
+    monkeypatch.setattr(mixed, "SCAN_LEVELS", 0)
+    plain_model = mixed_model(g, h_mean=h_mean)
+    plain = plain_model.solve(r, r, 1.0e9, 5e-5)
+    monkeypatch.setattr(mixed, "SCAN_LEVELS", 3)
+    model = mixed_model(g, h_mean=h_mean)
+    sol = model.solve(r, r, 1.0e9, 5e-5)
+    assert model._scan_grid()[0] == 1                   # 256² → 128² (SCAN_POINTS)
+    assert any(levels == 1 for _, levels, _ in model.last_scan)
+    assert not any(levels for _, levels, _ in plain_model.last_scan)
+    assert sol.phi == pytest.approx(plain.phi, rel=1e-9)
+    assert np.abs(sol.pressure - plain.pressure).max() < 1e-6 * plain.pressure.max()
+    assert np.abs(sol.clearance - plain.clearance).max() < 1e-6 * z1.std()
+    assert sol.pressure.mean() == pytest.approx(1.0e9, rel=1e-12)
+    if h_mean == 1e-12:
+        assert sol.phi == 1.0
+        assert _fine_solves(plain_model) == list(mixed.PHI_SCAN)
+        assert _fine_solves(model) == [1.0]
+    else:
+        c_rho = rheology.density_correction(sol.phi * 1.0e9)
+        assert sol.film_mean == pytest.approx(c_rho * h_mean, rel=2e-4)
+        assert (0.25 < sol.phi < 0.5) if h_mean == 0.1e-6 else (0.0 < sol.phi < 0.25)
+        # the bracket's two ends are solved on the window as in the plain scan: no more
+        assert len(_fine_solves(model)) <= len(_fine_solves(plain_model))
+
+
+@pytest.mark.parametrize("case", ["root later than coarse", "root earlier than coarse",
+                                  "coarse misses the root"])
+def test_a_coarse_scan_that_puts_the_root_elsewhere_is_corrected_on_the_window(case,
+                                                                                monkeypatch):
+    """The coarse scan's signs are only a guide: where they are wrong on the window (given
+    here by a coarse scan that lies), the trials are followed on the window until the plain
+    scan's bracket is found: the same root and pressures as the plain scan."""
+    g, (z1, z2) = random_pair()
+    fft = rfft_plan(g.shape)
+    r = (fft.forward(-z1), fft.forward(-z2))
+    h_mean, lie = {
+        # on the window f(0.25) > 0 > f(0.5); the coarse scan claims f(0.25) ≤ 0
+        "root later than coarse": (0.1e-6, [(0.25, -1e-12)]),
+        # on the window f(0.25) < 0; the coarse scan claims it far above the film
+        "root earlier than coarse": (0.35e-6, [(0.25, 1.0), (0.5, -1e-12)]),
+        # on the window f(0.25) < 0; the coarse scan claims no root at all, near f = 0
+        "coarse misses the root": (0.35e-6, [(t, 1e-12) for t in mixed.PHI_SCAN]),
+    }[case]
+    monkeypatch.setattr(mixed, "SCAN_LEVELS", 0)
+    plain = mixed_model(g, h_mean=h_mean).solve(r, r, 1.0e9, 5e-5)
+    model = mixed_model(g, h_mean=h_mean)
+    monkeypatch.setattr(model, "_coarse_scan", lambda *args: list(lie))
+    sol = model.solve(r, r, 1.0e9, 5e-5)
+    assert 0.0 < plain.phi < 1.0
+    assert sol.phi == pytest.approx(plain.phi, rel=1e-9)
+    assert np.abs(sol.pressure - plain.pressure).max() < 1e-6 * plain.pressure.max()
+
+
+def test_a_failing_coarse_scan_falls_back_to_the_scan_on_the_window(monkeypatch):
+    """A coarse solve of the φ scan that fails (ContactError) leaves the scan to the window:
+    the plain scan's answer, every trial on the window."""
+    g, (z1, z2) = random_pair(256)
+    fft = rfft_plan(g.shape)
+    r = (fft.forward(-z1), fft.forward(-z2))
+    monkeypatch.setattr(mixed, "SCAN_LEVELS", 0)
+    plain = mixed_model(g, h_mean=1e-12).solve(r, r, 1.0e9, 5e-5)
+    monkeypatch.setattr(mixed, "SCAN_LEVELS", 3)
+
+    def failing_on_coarse(gap0, hs, *args, **kwargs):
+        if hs.grid.nx < g.nx:
+            raise dry.ContactError("coarse solve failed (test)")
+        return solve_dry_contact(gap0, hs, *args, **kwargs)
+
+    monkeypatch.setattr(mixed, "solve_dry_contact", failing_on_coarse)
+    model = mixed_model(g, h_mean=1e-12)
+    sol = model.solve(r, r, 1.0e9, 5e-5)
+    assert _fine_solves(model) == list(mixed.PHI_SCAN)
+    assert sol.phi == plain.phi == 1.0
+    assert np.array_equal(sol.pressure, plain.pressure)

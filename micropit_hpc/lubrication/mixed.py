@@ -44,7 +44,13 @@ import numpy as np
 
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.lubrication import rheology
-from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
+from micropit_hpc.lubrication.dry import (
+    ContactError,
+    ElasticHalfSpaces,
+    coarse_levels,
+    restrict,
+    solve_dry_contact,
+)
 from micropit_hpc.parallel.slab import Reductions
 from micropit_hpc.spectral import Grid, rfft_plan
 
@@ -98,6 +104,30 @@ def solve_dispersion(a, c, e, ky, eta_x, eta_y, steps: int = 8, newton: int = 8)
     return psi, float(np.max(np.abs(F) / scale))
 
 
+def solve_dispersion_rows(a, c, e, ky, eta_x, eta_y):
+    """:func:`solve_dispersion` on a half spectrum (rows k_x in FFT order, the same k_y in
+    every row) solved on the rows k_x ≥ 0 only: the relation is odd in the real direction,
+    ψ(−a, k_y) = −conj ψ(a, k_y) (Ω, the flux and 1 + eΩ are conjugated, the i in front
+    flips the sign of the viscous term), and the Newton iterates from ψ = a keep that
+    symmetry exactly in floating point (negation and conjugation are exact, and so are the
+    complex square root, product and quotient under them), so the mirrored rows are the ones
+    a solve of the whole spectrum gives, bit for bit (tests/test_mixed.py), in half the time.
+    Falls back to the whole spectrum where ``a`` is not antisymmetric in the rows."""
+    a = np.asarray(a)
+    nx = a.shape[0]
+    m = nx // 2 + 1          # rows 0 … nx//2: k_x ≥ 0 (and the unpaired Nyquist row, nx even)
+    partners = slice(nx - m, 0, -1)         # rows nx − j of the mirrored rows j = m … nx − 1
+    ky = np.broadcast_to(ky, a.shape)
+    if (a.ndim != 2 or nx < 3 or not np.array_equal(a[m:], -a[partners])
+            or not np.array_equal(ky[m:], ky[partners])):
+        return solve_dispersion(a, c, e, ky, eta_x, eta_y)
+    half, res = solve_dispersion(a[:m], c, e, ky[:m], eta_x, eta_y)
+    psi = np.empty(a.shape, dtype=complex)
+    psi[:m] = half
+    psi[m:] = -np.conj(half[partners])
+    return psi, res
+
+
 class MixedLubrication:
     """The mixed model on one window for one contact (docs/model.md §4.1).
 
@@ -149,6 +179,10 @@ class MixedLubrication:
         self.nabla = nabla
         self._factors: dict[tuple[int, float, float], tuple] = {}
         self._factor_bytes = 0
+        self._scan = None
+        #: (φ, levels, f) of every film balance the last :meth:`solve` evaluated: levels 0 on
+        #: the window, else on the window halved that many times (the coarse φ scan)
+        self.last_scan: list[tuple[float, int, float]] = []
 
     # ---- step 2: lubricated clearance -------------------------------------------------------
     def lubricated_factors(self, body: int, p_mean: float, t: float):
@@ -176,8 +210,8 @@ class MixedLubrication:
         h_t = rheology.amplitude_ratio(nabla_nn)     # the [V00] fit the prefactor is calibrated on
         # complementary wave: decay e^{i(ψ − k_x u_i/ū) ū t}, |D| ≤ 1
         a = kx * ui / ub + 0 * ky
-        psi, _ = solve_dispersion(a, Ep * h**3 / (48 * ub), h * Ep / (4 * B), ky + 0 * kx,
-                                  eta_x, eta_y)
+        psi, _ = solve_dispersion_rows(a, Ep * h**3 / (48 * ub), h * Ep / (4 * B),
+                                       ky + 0 * kx, eta_x, eta_y)
         exponent = 1j * (psi - a) * ub * t
         D = np.exp(np.minimum(exponent.real, 0.0) + 1j * exponent.imag)
         h_a[0, 0] = h_t[0, 0] = D[0, 0] = 1.0
@@ -229,6 +263,14 @@ class MixedLubrication:
         evaluation, the root search tries the last evaluation's root first (inside the
         bracket) and starts its solves from that root's pressure, and the dict is updated.
 
+        The scan over :data:`PHI_SCAN` is made first on the window coarsened by up to
+        2^:data:`SCAN_LEVELS` (:meth:`_coarse_scan`); only the trials that bracket the
+        smallest root (and those the coarse grid does not clearly put above the film) are
+        then solved on the window (:meth:`_verify_scan`), with the same bracket, root and
+        pressures as a scan made on the window at every trial (tests/test_multilevel_contact.py).
+        Where the root is φ = 1 (the paper gear's rough positions) that is one solve on the
+        window instead of four.
+
         With a slab of several ranks (collective): ``r_now``, ``r_entry`` and ``p_init`` are
         the whole window's on every rank, the pressures kept in ``warm`` this rank's rows
         (``self.hs.rows``), and the solution is the whole window's on every rank."""
@@ -243,6 +285,7 @@ class MixedLubrication:
         h_bar = self.h_mean
         start0 = None if p_init is None else p_init[rows]
         state = {"p": start0, "iters": 0}
+        self.last_scan = []
 
         def clearance_spectrum(phi):
             if prm.fluid_share == "scaled":
@@ -269,7 +312,9 @@ class MixedLubrication:
                     warm[phi] = sol.pressure.astype(np.float32)
             c_rho = float(rheology.density_correction(phi * p_mean))
             (open_sum,) = group.sums(np.maximum(sol.gap, 0.0).sum())
-            return float(open_sum / N) - c_rho * h_bar, sol
+            f = float(open_sum / N) - c_rho * h_bar
+            self.last_scan.append((phi, 0, f))
+            return f, sol
 
         f0, _ = film(0.0)
         if f0 <= 0.0:  # full film: the fluid carries everything, surfaces apart
@@ -283,13 +328,17 @@ class MixedLubrication:
         # bracket (its load and contact are the closest at hand).
         lo, flo, sol_lo = 0.0, f0, None
         hi, fhi, sol = None, None, None
-        for trial in PHI_SCAN:
-            f, s_trial = film(trial)
-            if f <= 0.0:
-                hi, fhi, sol = trial, f, s_trial
-                break
-            lo, flo, sol_lo = trial, f, s_trial
-            sol = s_trial
+        coarse = self._coarse_scan(clearance_spectrum, p_mean, state)
+        if coarse is None:      # every trial on the window itself
+            for trial in PHI_SCAN:
+                f, s_trial = film(trial)
+                if f <= 0.0:
+                    hi, fhi, sol = trial, f, s_trial
+                    break
+                lo, flo, sol_lo = trial, f, s_trial
+                sol = s_trial
+        else:
+            lo, flo, sol_lo, hi, fhi, sol = self._verify_scan(coarse, film, f0)
         sol_hi = sol
         if hi is None:
             phi = 1.0
@@ -332,6 +381,105 @@ class MixedLubrication:
         return self._finish(H_final, r_tot, clearance, phi, p_mean, state["iters"],
                             float(np.maximum(clearance, 0).mean()))
 
+    def _scan_grid(self):
+        """(levels, coarse half-spaces) of the coarse φ scan (:data:`SCAN_LEVELS`,
+        :data:`SCAN_POINTS`): the window halved ``levels`` times; (0, None) when the window is
+        too small to be coarsened."""
+        if self._scan is None:
+            levels = min(SCAN_LEVELS, coarse_levels(self.grid, SCAN_POINTS)) if SCAN_LEVELS > 0 \
+                else 0
+            hs = None
+            if levels:
+                g = self.grid
+                cg = Grid(g.nx >> levels, g.ny >> levels, g.lx, g.ly)
+                hs = ElasticHalfSpaces(cg, self.E_prime)
+            self._scan = (levels, hs)
+        return self._scan
+
+    def _coarse_scan(self, clearance_spectrum, p_mean: float, state: dict):
+        """The film balance f(φ) of the trial fractions of :data:`PHI_SCAN` on the coarse grid
+        (:meth:`_scan_grid`), in order up to the first f ≤ 0: a list of (φ, f). The coarse gap
+        is the whole window's lubricated clearance restricted by full weighting
+        (:func:`~.dry.restrict`), each solve cold (coarse to fine) at the scene's tolerance,
+        serial on every rank alike (the decisions taken from it are the same on every rank of
+        a slab). None when the window is not coarsened, or when a coarse solve fails (the
+        same on every rank): every trial is then solved on the window."""
+        levels, hs = self._scan_grid()
+        if not levels:
+            return None
+        prm, fft = self.spec, self._fft
+        N = hs.grid.nx * hs.grid.ny
+        out = []
+        for trial in PHI_SCAN:
+            g = fft.inverse(clearance_spectrum(trial))
+            for _ in range(levels):
+                g = restrict(g)
+            try:
+                sol = solve_dry_contact(g, hs, trial * p_mean, p_lim=self.p_lim, tol=prm.tol,
+                                        max_iter=prm.max_iter)
+            except ContactError:    # the coarse grid is only a guide: scan on the window
+                return None
+            state["iters"] += sol.iterations
+            c_rho = float(rheology.density_correction(trial * p_mean))
+            f = float(np.maximum(sol.gap, 0.0).sum() / N) - c_rho * self.h_mean
+            out.append((trial, f))
+            self.last_scan.append((trial, levels, f))
+            if f <= 0.0:
+                break
+        return out
+
+    def _verify_scan(self, coarse, film, f0):
+        """The scan's bracket from the coarse scan ``coarse`` ([(φ, f_coarse)]) with as few
+        solves on the window as will reproduce the fine scan's answer: the first trial φ_k of
+        :data:`PHI_SCAN` with f(φ_k) ≤ 0 on the window (the smallest root's bracket
+        [φ_{k−1}, φ_k]), or none (φ = 1).
+
+        The candidate, the coarse scan's first trial with f ≤ 0 (or the last trial), is solved
+        on the window; the coarse balance's error there, d = |f − f_coarse|, sets the margin
+        :data:`SCAN_MARGIN`·d: an earlier trial whose coarse f is within it is solved on the
+        window too (its sign could differ there). A trial whose fine f contradicts the coarse
+        sign is followed on the window as the plain scan would: a positive candidate moves
+        the scan on to the later trials, a non-positive lower end moves the bracket down.
+        Returns (lo, f(lo), solution at lo, hi, f(hi), solution at hi or, with no root, at
+        φ = 1) as the plain scan's loop does, every f and solution of the window."""
+        coarse_f = dict(coarse)
+        k = PHI_SCAN.index(coarse[-1][0])
+        f_k, s_k = film(PHI_SCAN[k])
+        margin = SCAN_MARGIN * abs(f_k - coarse_f[PHI_SCAN[k]])
+        fine = {PHI_SCAN[k]: (f_k, s_k)}
+        # the trials below the candidate that the coarse grid does not clearly put above the
+        # film: solved on the window, lowest first (the smallest root is wanted)
+        for trial in PHI_SCAN[:k]:
+            if coarse_f[trial] <= margin:
+                fine[trial] = film(trial)
+                if fine[trial][0] <= 0.0:
+                    break
+        roots = [t for t in PHI_SCAN if t in fine and fine[t][0] <= 0.0]
+        if roots:
+            j = PHI_SCAN.index(roots[0])
+        else:       # the candidate is positive on the window: the plain scan goes on from it
+            j = None
+            for trial in PHI_SCAN[k + 1:]:
+                fine[trial] = film(trial)
+                if fine[trial][0] <= 0.0:
+                    j = PHI_SCAN.index(trial)
+                    break
+        if j is None:
+            f1, s1 = fine[PHI_SCAN[-1]]
+            return PHI_SCAN[-1], f1, s1, None, None, s1
+        hi, (fhi, sol_hi) = PHI_SCAN[j], fine[PHI_SCAN[j]]
+        # the bracket's lower end on the window; should it not be above the film after all,
+        # the bracket moves down to it
+        while j > 0:
+            lo = PHI_SCAN[j - 1]
+            if lo not in fine:
+                fine[lo] = film(lo)
+            flo, sol_lo = fine[lo]
+            if flo > 0.0:
+                return lo, flo, sol_lo, hi, fhi, sol_hi
+            j, hi, fhi, sol_hi = j - 1, lo, flo, sol_lo
+        return 0.0, f0, None, hi, fhi, sol_hi
+
     def _finish(self, H, r_tot, clearance, phi, p_mean, iters, film_mean) -> MixedSolution:
         """Step 4: pressure from the total displacement H − r through the inverse frequency
         response, clipped to [0, p_lim], mean restored to p̄."""
@@ -348,6 +496,17 @@ FACTOR_CACHE_BYTES = 256 * 2**20
 
 #: Load fractions tried, in order, to bracket the smallest root of the flow balance.
 PHI_SCAN = (0.25, 0.5, 0.75, 1.0)
+
+#: The φ scan is first made on the window halved up to this many times (each coarse side
+#: ≥ :data:`SCAN_POINTS`), and only the trials that bracket its root are solved on the window
+#: (:meth:`MixedLubrication._verify_scan`); 0: every trial on the window.
+SCAN_LEVELS = 3
+#: The fewest points per side of the coarse φ scan's grid: a window that cannot be halved
+#: once and keep them (128² and smaller with 128) scans on itself.
+SCAN_POINTS = 128
+#: A trial below the candidate bracket is solved on the window too when its coarse film
+#: balance is within this many times the coarse balance's error at the candidate.
+SCAN_MARGIN = 4.0
 
 
 def restore_mean(p: np.ndarray, p_mean: float, p_lim: float = math.inf) -> np.ndarray:
