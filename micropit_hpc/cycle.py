@@ -769,11 +769,13 @@ class PositionCycle:
         fields = self._contact_steps(warm, on_step)
         w = self.weights                    # each step's share of the transit time
         p_sum = sum(wj * float(f.pressure.sum()) for wj, f in zip(w, fields, strict=True))
-        weights = w * np.array([f.p_mean for f in fields])
-        phi = (float((weights * [f.phi for f in fields]).sum() / weights.sum())
-               if weights.any() else 0.0)
-        pit_load = (float((weights * [f.pit_load for f in fields]).sum() / weights.sum())
-                    if weights.any() else 0.0)
+        weights = w * np.array([f.p_mean for f in fields])   # each step's share of the load
+
+        def load_weighted(values) -> float:
+            return float((weights * values).sum() / weights.sum()) if weights.any() else 0.0
+
+        phi = load_weighted([f.phi for f in fields])
+        pit_load = load_weighted([f.pit_load for f in fields])
         solid = float(sum(wj * f.solid.mean() for wj, f in zip(w, fields, strict=True)))
         at_lim = (1.0 - 1e-9) * self.p_lim
         in_contact = sum(wj * np.count_nonzero(f.pressure > 0.0)
