@@ -269,3 +269,101 @@ def test_directions_kept_conjugate_through_entries_give_the_reset_answer(p_lim_s
     assert np.abs(kept.pressure - reset.pressure).max() <= 1e-7 * peak
     assert kept.pressure.mean() == pytest.approx(P, rel=1e-12)
     assert kept.pressure.max() <= p_lim
+
+
+# ---- points held free: open micropits (life.pit_contact = "open") -----------------------------
+def _conditions_hold(r, gap0, P, p_lim, free):
+    """Load, cap, zero pressure on the free points and complementarity on the others."""
+    scale = gap0.std()
+    assert np.all(r.pressure[free] == 0.0)
+    assert r.pressure.mean() == pytest.approx(P, rel=1e-10)
+    assert r.pressure.min() >= 0.0 and r.pressure.max() <= p_lim
+    plastic = r.pressure >= p_lim
+    off = (r.pressure == 0.0) & ~free
+    on = ~plastic & ~off & ~free
+    assert on.any()
+    assert r.gap[off].min() >= -1e-6 * scale
+    assert np.abs(r.gap[on]).max() <= 1e-5 * scale
+    if plastic.any():
+        assert r.gap[plastic].max() <= 1e-6 * scale
+
+
+@pytest.mark.parametrize("p_lim_share", [math.inf, 0.6])
+def test_points_held_free_carry_nothing_and_their_load_settles_on_the_rest(p_lim_share):
+    """The most loaded 5 % of the points held free (open pits): they carry no pressure, the
+    load, the cap and the complementarity conditions hold on the others, and the counterface
+    comes down onto more of the other points than touched before."""
+    g, gap0 = rough_gap(7)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    P = 1.0e9
+    plain = solve_dry_contact(gap0, hs, P, tol=TOL, max_iter=MAX_ITER)
+    p_lim = p_lim_share * plain.pressure.max()
+    if math.isfinite(p_lim):
+        plain = solve_dry_contact(gap0, hs, P, p_lim, tol=TOL, max_iter=MAX_ITER)
+    free = plain.pressure >= np.quantile(plain.pressure, 0.95)
+    r = solve_dry_contact(gap0, hs, P, p_lim, tol=TOL, max_iter=MAX_ITER, free=free)
+    _conditions_hold(r, gap0, P, p_lim, free)
+    intact_before = np.count_nonzero((plain.pressure > 0.0) & ~free)
+    assert np.count_nonzero(r.pressure > 0.0) > intact_before
+    assert r.gap[free].min() < 0.0        # the held points would touch: nothing holds them up
+
+
+def test_points_held_free_out_of_contact_change_nothing():
+    """Holding free points that are out of contact anyway gives the same solution (to the
+    solver's tolerance), cold (the mask restricted onto the coarse levels) and warm."""
+    g, gap0 = rough_gap(8)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    P = 0.8e9
+    plain = solve_dry_contact(gap0, hs, P, 2.5e9, tol=1e-10, max_iter=MAX_ITER)
+    rng = np.random.default_rng(1)
+    free = (plain.gap > 0.05 * gap0.std()) & (rng.random(g.shape) < 0.7)
+    assert free.mean() > 0.3
+    for start in (None, plain.pressure):
+        r = solve_dry_contact(gap0, hs, P, 2.5e9, tol=1e-10, max_iter=MAX_ITER,
+                              p_init=start, free=free)
+        assert np.abs(r.pressure - plain.pressure).max() <= 1e-6 * plain.pressure.max()
+
+
+def test_a_warm_start_that_loads_the_held_points_is_set_free():
+    """A warm start from before the pits (the held points at the cap, which would keep them in
+    the yielded set) ends where the cold solve ends."""
+    g, gap0 = rough_gap(9)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    P, p_lim = 1.0e9, 2.0e9
+    plain = solve_dry_contact(gap0, hs, P, p_lim, tol=TOL, max_iter=MAX_ITER)
+    free = plain.pressure >= p_lim
+    assert free.sum() > 10
+    cold = solve_dry_contact(gap0, hs, P, p_lim, tol=1e-10, max_iter=MAX_ITER, free=free)
+    warm = solve_dry_contact(gap0, hs, P, p_lim, tol=1e-10, max_iter=MAX_ITER,
+                             p_init=plain.pressure, free=free)
+    _conditions_hold(warm, gap0, P, p_lim, free)
+    assert np.abs(warm.pressure - cold.pressure).max() <= 1e-6 * cold.pressure.max()
+
+
+def test_a_load_the_points_not_held_cannot_carry_is_refused():
+    g, gap0 = rough_gap(3, 32)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    free = np.ones(g.shape, bool)
+    free[:4, :4] = False
+    with pytest.raises(ContactError, match="not held free would reach the cap"):
+        solve_dry_contact(gap0, hs, 1.0e9, 3.0e9, tol=TOL, max_iter=MAX_ITER, free=free)
+    with pytest.raises(ValueError, match="free shape"):
+        solve_dry_contact(gap0, hs, 1.0e9, 3.0e9, tol=TOL, max_iter=MAX_ITER, free=free[1:])
+
+
+def test_a_solve_whose_directions_cycle_restarts_them_and_converges():
+    """A 64² step of the paper gear (position 5) with 62 % of the window in open pits: the
+    yielded set takes nearly all the load and leaves three points in the elastic contact, where
+    the directions kept conjugate through entries cycled without end (the residual stuck at
+    1e-3 until max_iterations); the stall rule (dry.STALL_ITERATIONS) restarts them and the
+    solve meets every condition. The gap and mask are stored in tests/data."""
+    from pathlib import Path
+
+    d = np.load(Path(__file__).parent / "data" / "open_pits_stall_64.npz")
+    lx, ly = d["lengths"]
+    g = Grid(*d["gap0"].shape, float(lx), float(ly))
+    hs = ElasticHalfSpaces(g, float(d["E_prime"]))
+    P, p_lim, free = float(d["P"]), float(d["p_lim"]), d["free"]
+    r = solve_dry_contact(d["gap0"], hs, P, p_lim, tol=TOL, max_iter=MAX_ITER, free=free)
+    _conditions_hold(r, d["gap0"], P, p_lim, free)
+    assert np.count_nonzero(r.pressure >= p_lim) > 50
