@@ -21,6 +21,7 @@ Two experiments that are not options of the code, each a one-line change made in
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -34,7 +35,8 @@ from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
-COLUMNS = ("position", "k_lub_s", "n", "cycles_M", "load_to", "fill_cells", "pit_load",
+COLUMNS = ("position", "k_lub_s", "n", "cycles_M", "pit_contact", "load_to", "fill_cells",
+           "pit_load",
            "wear_um", "Ap_1", "Ap_2", "dq_1", "dq_2", "phi", "wall_s")
 
 
@@ -75,12 +77,16 @@ def main(argv=None) -> int:
     ap.add_argument("--ref", type=int, default=256, help="grid of the surface realisation")
     ap.add_argument("--fill-cells", type=float, default=life.PIT_FILL_CELLS)
     ap.add_argument("--load-to", choices=("film", "contacts"), default="film")
+    ap.add_argument("--pit-contact", choices=("unloaded", "open"), default="unloaded",
+                    help="life.pit_contact of the runs")
     ap.add_argument("--csv", default=None)
     a = ap.parse_args(argv)
     life.PIT_FILL_CELLS = a.fill_cells
     if a.load_to == "contacts":
         PositionCycle._unload_pits = _to_contacts(PositionCycle._unload_pits)
     base = load_scene(a.scene)
+    base = dataclasses.replace(base, life=dataclasses.replace(base.life,
+                                                              pit_contact=a.pit_contact))
     reference = reference_surfaces(base, a.ref)
     print(",".join(COLUMNS), flush=True)
     rows = []
@@ -88,7 +94,8 @@ def main(argv=None) -> int:
         t0 = time.perf_counter()
         run = item_run(base, a.position, a.k_lub, n, a.cycles_M, reference)
         rec = run.run_block(a.cycles_M * 1e6)
-        row = (a.position, a.k_lub, n, a.cycles_M, a.load_to, a.fill_cells, rec.pit_load,
+        row = (a.position, a.k_lub, n, a.cycles_M, a.pit_contact, a.load_to, a.fill_cells,
+               rec.pit_load,
                sum(rec.wear_mean) * 1e6, rec.Ap[0], rec.Ap[1], rec.slope[0], rec.slope[1],
                rec.phi, time.perf_counter() - t0)
         rows.append(row)

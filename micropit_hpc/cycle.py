@@ -385,12 +385,12 @@ class PositionCycle:
     # ---- one step ----------------------------------------------------------------------------
     # the contact of one step at each level (:data:`~micropit_hpc.plan.LEVELS`): (rough
     # clearance spectra at t, p̄, t, warm start, warm dict) → (pressure, clearance, φ, iterations)
-    def _smooth_contact(self, r_now, p_mean: float, t: float, p_init, warm):
+    def _smooth_contact(self, r_now, p_mean: float, t: float, p_init, warm, free=None):
         """No roughness in the contact (or no load): p = p̄ and the central film everywhere."""
         g = self.grid
         return np.full(g.shape, p_mean), np.full(g.shape, self.cond.hc), 0.0, 0
 
-    def _dry_contact(self, r_now, p_mean: float, t: float, p_init, warm):
+    def _dry_contact(self, r_now, p_mean: float, t: float, p_init, warm, free=None):
         """Elastic–perfectly-plastic contact of the roughness; the solids carry all (φ = 1)."""
         lub, hs = self.scene.lubrication, self.half_spaces
         rows = hs.rows            # the solver's rows (docs/hpc.md §2; not split: all)
@@ -399,7 +399,8 @@ class PositionCycle:
         if warm is not None:
             start = warm.get("dry", start)
         sol = solve_dry_contact(gap0, self.half_spaces, p_mean, p_lim=self.p_lim,
-                                tol=lub.tol, max_iter=lub.max_iter, p_init=start)
+                                tol=lub.tol, max_iter=lub.max_iter, p_init=start,
+                                free=None if free is None else free[rows])
         if warm is not None:
             warm["dry"] = sol.pressure.astype(np.float32)     # this rank's rows
         if hs.distributed:
@@ -407,9 +408,10 @@ class PositionCycle:
                     sol.iterations)
         return sol.pressure, sol.gap, 1.0, sol.iterations
 
-    def _mixed_contact(self, r_now, p_mean: float, t: float, p_init, warm):
+    def _mixed_contact(self, r_now, p_mean: float, t: float, p_init, warm, free=None):
         """The fast mixed-lubrication model (:class:`MixedLubrication`)."""
-        sol = self.mixed.solve(r_now, self.rough_spectra, p_mean, t, p_init=p_init, warm=warm)
+        sol = self.mixed.solve(r_now, self.rough_spectra, p_mean, t, p_init=p_init, warm=warm,
+                               free=free)
         return sol.pressure, sol.clearance, sol.phi, sol.iterations
 
     #: The contact solver of each level.
@@ -437,9 +439,10 @@ class PositionCycle:
         r_now = tuple(fourier_shift(r, g, self.slip(i + 1, t))
                       for i, r in enumerate(self.rough_spectra))
         level = "smooth" if p_mean == 0.0 else self.level
+        free = self._open_pits(t, p_mean) if level != "smooth" else None
         try:
             pressure, clearance, phi, iters = self._CONTACT[level](self, r_now, p_mean, t,
-                                                                   p_init, warm)
+                                                                   p_init, warm, free)
         except ContactError:
             if p_init is None and not warm:      # a cold start failed: that stands
                 raise
@@ -449,7 +452,7 @@ class PositionCycle:
             # converged from cold); once more from cold, the same on every rank of the group
             fresh = None if warm is None else {}
             pressure, clearance, phi, iters = self._CONTACT[level](self, r_now, p_mean, t,
-                                                                   None, fresh)
+                                                                   None, fresh, free)
             if warm is not None:
                 warm.clear()
                 warm.update(fresh)
@@ -473,6 +476,21 @@ class PositionCycle:
         for i, m in enumerate(self.pits, start=1):
             if m.any():
                 mask |= np.roll(m, int(round(self.slip(i, t) / g.dx)), axis=0)
+        return mask
+
+    def _open_pits(self, t: float, p_mean: float) -> np.ndarray | None:
+        """The columns the contact solve holds at p = 0 at time t (``life.pit_contact =
+        "open"``): those over a pit of either body (:meth:`pit_mask`), so that the
+        counterface settles onto the intact columns around them; None where the pits are
+        not open, there are none, or the intact columns could not carry p̄ below p_lim (the
+        window mostly pitted: :meth:`_unload_pits` then spreads the rest over the pit
+        floors)."""
+        if self.pits is None or self.scene.life.pit_contact != "open":
+            return None
+        mask = self.pit_mask(t)
+        n_free = mask.size - int(np.count_nonzero(mask))
+        if not mask.any() or not n_free or p_mean * mask.size >= 0.999 * self.p_lim * n_free:
+            return None
         return mask
 
     def _unload_pits(self, pressure, clearance, p_mean: float, t: float):

@@ -151,10 +151,11 @@ def contact_surfaces(state: LifeState, grid: Grid, pit_contact: str
                      ) -> tuple[tuple[Topography, Topography],
                                 tuple[np.ndarray, np.ndarray] | None]:
     """The surfaces the contact sees in ``state`` and the pitted columns that carry no load,
-    for :meth:`PositionCycle.evaluate`, by ``life.pit_contact``: ``"unloaded"``, the surface
-    around the pits (:func:`_around_pits`) and each body's pits; ``"geometric"``, the heights
-    as they are (pits and all) and no unloaded columns (None)."""
-    if pit_contact == "unloaded":   # the surface around the pits; pits carry nothing
+    for :meth:`PositionCycle.evaluate`, by ``life.pit_contact``: ``"unloaded"`` and
+    ``"open"``, the surface around the pits (:func:`_around_pits`) and each body's pits
+    (``"open"``: held at p = 0 inside the contact solve, :meth:`PositionCycle.solve_step`);
+    ``"geometric"``, the heights as they are (pits and all) and no unloaded columns (None)."""
+    if pit_contact in ("unloaded", "open"):     # the surface around the pits; pits carry nothing
         tops = tuple(Topography(_around_pits(b), grid.dx, grid.dy, "evolved")
                      for b in state.bodies)
         return tops, tuple(b.pitted for b in state.bodies)

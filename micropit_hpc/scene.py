@@ -670,11 +670,16 @@ class LifeSpec:
         "solutions [choice]. `unloaded`: the pit's floor is never reached, so its columns "
         "carry no pressure and no traction; the contact, film balance and peak spacing are "
         "solved on the surface around it (the heights, R_q and wear outputs still drop by "
-        "the pit depth); `geometric`: the pitted heights enter the clearance as a step "
+        "the pit depth), and the load a pitted asperity tip took in that solve is handed "
+        "to all other columns as a film's pressure; `open`: as `unloaded`, but the contact "
+        "solve itself holds the pits' columns at zero pressure, so the counterface settles "
+        "elastically onto the intact columns around them and the flow balance averages "
+        "over the intact columns (docs/life.md, \"Where the load of a pitted asperity "
+        "goes\"); `geometric`: the pitted heights enter the clearance as a step "
         "(docs/model.md §4.5 read literally; a one-cell step of microns is outside what the "
         "small-slope half-space and the linearised micro-EHL represent and sets off a "
         "cascade of failures around every pit, docs/life.md).", default="unloaded",
-        choices=("unloaded", "geometric"))
+        choices=("unloaded", "open", "geometric"))
     wear_integration: str = setting(
         "wear_integration", "str", "How the wear of a sub-block is "
         "integrated in the `adaptive` integration [decision] (`paper` always wears "

@@ -2,6 +2,7 @@
 
 * ``life.pit_contact = "unloaded"`` (default): pitted columns carry no pressure and no traction,
   the mean pressure is restored on the rest, and the pit moves with its surface;
+* ``"open"``: the contact solve itself holds the pitted columns at zero pressure;
 * the flow balance takes the smallest root φ of mean clearance = c_ρ h̄ (the balance is not
   monotone in φ with ``fluid_share = "scaled"``; the earlier search stopped at φ = 1 with the
   clearance twice the film on this MPR-like contact).
@@ -150,3 +151,44 @@ def test_the_contact_sees_the_surface_around_unloaded_pits_or_the_pits_themselve
     assert pits is None
     for top, bs in zip(tops, state.bodies, strict=True):
         np.testing.assert_array_equal(top.heights, bs.heights)
+
+
+
+def _tiny_cycle(pit_contact, model="auto"):
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["window"]["n"] = 32
+    doc.setdefault("life", {})["pit_contact"] = pit_contact
+    doc.setdefault("lubrication", {})["model"] = model
+    return PositionCycle(contact_study(scene_from_dict(doc, "t.toml")), 1)
+
+
+@pytest.mark.parametrize("model", ["dry", "auto"])
+def test_open_pits_are_held_free_inside_the_solve(model):
+    """``life.pit_contact = "open"``, the most loaded 5 % of the columns pitted: the contact
+    solve itself holds them at p = 0, so the solids' load settles on intact columns that
+    touched less before, and the load balance over the window holds. Dry: nothing is left on
+    the pits to hand on (StepFields.pit_load = 0, where "unloaded" hands on the load its
+    solve put there). Mixed (φ < 1): the flow balance holds over the intact columns; the
+    film's pressure over the pits (step 4) is still handed on as before."""
+    cycles = {mode: _tiny_cycle(mode, model) for mode in ("open", "unloaded")}
+    oc = cycles["open"]
+    g = oc.grid
+    plain = oc.solve_step(4)
+    top = plain.pressure >= np.quantile(plain.pressure, 0.95)
+    shift = round(oc.slip(1, plain.t) / g.dx)
+    pits = (np.roll(top, -shift, axis=0), np.zeros_like(top))
+    out = {}
+    for mode, c in cycles.items():
+        c.set_surfaces(c.surfaces, pits=pits)
+        out[mode] = c.solve_step(4)
+    f, unloaded = out["open"], out["unloaded"]
+    assert np.all(f.pressure[top] == 0.0) and not f.solid[top].any()
+    assert f.pressure.mean() == pytest.approx(f.p_mean, rel=1e-12)
+    assert np.count_nonzero(f.solid & ~top) > np.count_nonzero(plain.solid & ~top)
+    assert unloaded.pit_load > 0.1
+    if model == "dry":
+        assert f.level == "dry" and f.pit_load == 0.0
+    else:
+        assert f.level == "mixed" and 0.0 < f.phi < 1.0
+        target = rheology.density_correction(f.phi * f.p_mean) * oc.cond.hc
+        assert np.maximum(f.clearance[~top], 0).mean() == pytest.approx(target, rel=1e-3)

@@ -245,7 +245,8 @@ class MixedLubrication:
 
     # ---- steps 3–5 --------------------------------------------------------------------------
     def solve(self, r_now, r_entry, p_mean: float, t: float,
-              p_init: np.ndarray | None = None, warm: dict | None = None) -> MixedSolution:
+              p_init: np.ndarray | None = None, warm: dict | None = None,
+              free: np.ndarray | None = None) -> MixedSolution:
         """Pressure and clearance at one step. ``r_now``/``r_entry``: half spectra of each
         surface's rough clearance −z_i at time t and at the window's entry (t = 0).
 
@@ -271,13 +272,22 @@ class MixedLubrication:
         Where the root is φ = 1 (the paper gear's rough positions) that is one solve on the
         window instead of four.
 
-        With a slab of several ranks (collective): ``r_now``, ``r_entry`` and ``p_init`` are
-        the whole window's on every rank, the pressures kept in ``warm`` this rank's rows
-        (``self.hs.rows``), and the solution is the whole window's on every rank."""
+        ``free``: the columns of open micropits (``life.pit_contact = "open"``; whole window,
+        None: none): the dry solves hold them at p = 0 (:func:`~.dry.solve_dry_contact`), so
+        the solids' load goes to the other columns, and the flow balance averages the clearance
+        over the other columns only (a pit is a closed pocket of oil, neither a passage for the
+        flow nor a solid contact). Step 4's pressure over them is the caller's to remove.
+
+        With a slab of several ranks (collective): ``r_now``, ``r_entry``, ``p_init`` and
+        ``free`` are the whole window's on every rank, the pressures kept in ``warm`` this
+        rank's rows (``self.hs.rows``), and the solution is the whole window's on every
+        rank."""
         prm, fft, g = self.spec, self._fft, self.grid
         hs, rows = self.hs, self.hs.rows
         group = Reductions(hs.slab)
         N = g.nx * g.ny
+        held = None if free is None or not free.any() else free[rows]
+        n_flow = N if held is None else N - int(np.count_nonzero(free))
         r_tot = r_now[0] + r_now[1]
         r_tot = r_tot.copy()
         r_tot[0, 0] = 0.0
@@ -304,15 +314,17 @@ class MixedLubrication:
                 start = warm.get(phi if phi in PHI_SCAN else "root", start)
             sol = solve_dry_contact(fft.inverse(clearance_spectrum(phi))[rows], hs,
                                     phi * p_mean, p_lim=self.p_lim, tol=prm.tol,
-                                    max_iter=prm.max_iter, p_init=start)
+                                    max_iter=prm.max_iter, p_init=start, free=held)
             state["iters"] += sol.iterations
             if group.any(sol.pressure):
                 state["p"] = sol.pressure
                 if warm is not None and phi in PHI_SCAN:
                     warm[phi] = sol.pressure.astype(np.float32)
             c_rho = float(rheology.density_correction(phi * p_mean))
-            (open_sum,) = group.sums(np.maximum(sol.gap, 0.0).sum())
-            f = float(open_sum / N) - c_rho * h_bar
+            gap_open = np.maximum(sol.gap, 0.0)
+            (open_sum,) = group.sums(gap_open.sum() if held is None
+                                     else gap_open.sum(where=~held))
+            f = float(open_sum / n_flow) - c_rho * h_bar
             self.last_scan.append((phi, 0, f))
             return f, sol
 
@@ -328,7 +340,7 @@ class MixedLubrication:
         # bracket (its load and contact are the closest at hand).
         lo, flo, sol_lo = 0.0, f0, None
         hi, fhi, sol = None, None, None
-        coarse = self._coarse_scan(clearance_spectrum, p_mean, state)
+        coarse = self._coarse_scan(clearance_spectrum, p_mean, state, free)
         if coarse is None:      # every trial on the window itself
             for trial in PHI_SCAN:
                 f, s_trial = film(trial)
@@ -396,19 +408,29 @@ class MixedLubrication:
             self._scan = (levels, hs)
         return self._scan
 
-    def _coarse_scan(self, clearance_spectrum, p_mean: float, state: dict):
+    def _coarse_scan(self, clearance_spectrum, p_mean: float, state: dict, free=None):
         """The film balance f(φ) of the trial fractions of :data:`PHI_SCAN` on the coarse grid
         (:meth:`_scan_grid`), in order up to the first f ≤ 0: a list of (φ, f). The coarse gap
         is the whole window's lubricated clearance restricted by full weighting
         (:func:`~.dry.restrict`), each solve cold (coarse to fine) at the scene's tolerance,
         serial on every rank alike (the decisions taken from it are the same on every rank of
         a slab). None when the window is not coarsened, or when a coarse solve fails (the
-        same on every rank): every trial is then solved on the window."""
+        same on every rank): every trial is then solved on the window. ``free``: the open
+        pits' columns (:meth:`solve`), free on the coarse grid where at least half of a
+        coarse cell is."""
         levels, hs = self._scan_grid()
         if not levels:
             return None
         prm, fft = self.spec, self._fft
-        N = hs.grid.nx * hs.grid.ny
+        held = None
+        if free is not None and free.any():
+            held = free.astype(float)
+            for _ in range(levels):
+                held = restrict(held)
+            held = held >= 0.5
+        n_flow = hs.grid.nx * hs.grid.ny - (0 if held is None else int(held.sum()))
+        if n_flow == 0:
+            return None
         out = []
         for trial in PHI_SCAN:
             g = fft.inverse(clearance_spectrum(trial))
@@ -416,12 +438,14 @@ class MixedLubrication:
                 g = restrict(g)
             try:
                 sol = solve_dry_contact(g, hs, trial * p_mean, p_lim=self.p_lim, tol=prm.tol,
-                                        max_iter=prm.max_iter)
+                                        max_iter=prm.max_iter, free=held)
             except ContactError:    # the coarse grid is only a guide: scan on the window
                 return None
             state["iters"] += sol.iterations
             c_rho = float(rheology.density_correction(trial * p_mean))
-            f = float(np.maximum(sol.gap, 0.0).sum() / N) - c_rho * self.h_mean
+            gap_open = np.maximum(sol.gap, 0.0)
+            open_sum = gap_open.sum() if held is None else gap_open.sum(where=~held)
+            f = float(open_sum / n_flow) - c_rho * self.h_mean
             out.append((trial, f))
             self.last_scan.append((trial, levels, f))
             if f <= 0.0:
