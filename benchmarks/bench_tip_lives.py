@@ -28,7 +28,8 @@ from micropit_hpc.wear import to_material_frame
 
 ROOT = Path(__file__).resolve().parents[1]
 COLUMNS = ("position", "k_lub_s", "n", "body", "columns_failing", "share_pct",
-           "share_below_n_min_pct", "share_at_surface_pct", "N_f_p10", "N_f_p50", "N_f_p90", "z_f_um_p50",
+           "share_below_n_min_pct", "share_at_surface_pct", "N_f_p10", "N_f_p50", "N_f_p90",
+           "z_f_um_p50",
            "p_max_over_p_lim_p50", "tau_dv_MPa_p50", "wear_in_N_f_nm_p50",
            "wear_in_N_f_nm_p90", "wear_over_z_f_p50", "wear_over_z_f_p90",
            "cycles_to_wear_z_f_p50")

@@ -755,9 +755,17 @@ class PositionCycle:
         wear per cycle of both bodies, no stresses and no Dang Van (the iterations of the
         implicit wear, :mod:`micropit_hpc.implicit_wear`). Collective like :meth:`evaluate`,
         with the same arguments; the returned rates are the same on every rank."""
-        self.set_surfaces(surfaces, pits)
-        fields = self._contact_steps(warm, None)
+        fields = self.contact_fields(surfaces, pits, warm)
         return self.wear_of(fields, 1), self.wear_of(fields, 2)
+
+    def contact_fields(self, surfaces: tuple[Topography, Topography],
+                       pits: tuple[np.ndarray, np.ndarray] | None = None,
+                       warm: dict | None = None) -> list[StepFields]:
+        """The contact at every step of a load cycle on ``surfaces`` (which become the
+        cycle's), on every rank of the group; collective like :meth:`evaluate`, with the same
+        arguments."""
+        self.set_surfaces(surfaces, pits)
+        return self._contact_steps(warm, None)
 
     def evaluate(self, surfaces: tuple[Topography, Topography],
                  pits: tuple[np.ndarray, np.ndarray] | None = None, warm: dict | None = None,

@@ -708,6 +708,23 @@ class LifeSpec:
         "wear_max_iter", "int", "`implicit` wear: the most contact-only load "
         "cycles one sub-block's solve may take (a solve that stops there is accepted and "
         "reported in the log).", default=30, lo=1, hi=10000)
+    running_in: str = setting(
+        "running_in", "str", "[choice] Plastic running-in of the asperity tips before the "
+        "first block, beyond the paper (docs/life.md, \"Plastic running-in of the tips\"). "
+        "`none`: the life starts on the surfaces as given; `plastic`: the load cycle is "
+        "solved contact-only and every column of each body lowered by its share of the "
+        "largest plastic overlap it met (the negative clearance where p = p_lim; the shares "
+        "in inverse proportion to the hardnesses), pass after pass until the largest overlap "
+        "is below `running_in_overlap` of the composite R_q or `running_in_passes` passes; "
+        "the damage of these first cycles is not counted.", default="none",
+        choices=("none", "plastic"))
+    running_in_passes: int = setting(
+        "running_in_passes", "int", "`plastic` running-in: the most passes (contact-only "
+        "load cycles; docs/performance.md §15).", default=100, lo=1, hi=100000)
+    running_in_overlap: float = setting(
+        "running_in_overlap", "float", "`plastic` running-in: it ends once the largest "
+        "plastic overlap of a pass is below this fraction of the composite initial R_q.",
+        default=1e-3, lo=0, hi=1, lo_open=True)
     integration: str = setting(
         "integration", "str", "Time integration of the life [decision]. "
         "`adaptive`: blocks split until damage, pits and wear are resolved in time (the "

@@ -32,6 +32,7 @@ from micropit_hpc.plan import (
     scaled_scene,
 )
 from micropit_hpc.regime import block_flags
+from micropit_hpc.running_in import RunningIn, run_in
 from micropit_hpc.scene import Scene
 from micropit_hpc.state import BODY_FIELDS
 from micropit_hpc.surfaces import Topography
@@ -78,9 +79,21 @@ class ItemRun:
         self.cycle = PositionCycle(study, item.position, surfaces=surfaces, steps=steps,
                                    comm=comm, window=window, k_lub=item.k_lub)
         self.state: LifeState = initial_state(self.cycle)
+        self._log, self._rank = log, (0 if comm is None else comm.rank)
+        #: what the plastic running-in did (``life.running_in = "plastic"``), once it ran
+        self.running_in: RunningIn | None = None
 
     def run_block(self, cycles: float | None = None,
                   on_progress: Callable[..., None] | None = None) -> BlockRecord:
+        """The next block (:func:`~micropit_hpc.life.run_block`); before the first block of
+        a fresh state the plastic running-in (``life.running_in``), which a run restarted
+        from a checkpoint does not repeat (its surfaces hold it)."""
+        if self.life.running_in == "plastic" and self.state.block == 0 \
+                and self.running_in is None:
+            self.running_in = run_in(self.cycle, self.state, self.life)
+            if self._log and self._rank == 0:
+                self._log(f"item {self.item.id} (position {self.item.position}): "
+                          f"{self.running_in.line()}")
         return run_block(self.cycle, self.state, self.life, cycles, on_progress)
 
 

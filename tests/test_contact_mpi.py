@@ -208,6 +208,54 @@ def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model, monkeyp
 
 
 @pytest.mark.mpi(min_size=2)
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("model", ["auto", "dry"])
+def test_open_pits_and_the_plastic_running_in_on_two_ranks_equal_one_rank(model, monkeypatch):
+    """``life.pit_contact = "open"`` (pits held free inside the distributed dry solves, the
+    flow balance summed over the intact columns of each slab) and the plastic running-in
+    (``life.running_in``) with the tiny disc's window split over 2 ranks: the steps' fields
+    and the run-in heights within 1e-12 relative of one rank's, the same on every rank."""
+    from mpi4py import MPI
+
+    from micropit_hpc.life import initial_state
+    from micropit_hpc.running_in import run_in
+
+    comm = MPI.COMM_WORLD
+    monkeypatch.setenv("MICROPIT_CONTACT_SPLIT_MIN_CELLS", "0")
+    doc = tiny_doc(slide_roll=(0.3,))
+    doc["window"]["n"] = 27
+    doc["lubrication"] = {"model": model}
+    doc["body1"]["hardness_GPa"] = doc["body2"]["hardness_GPa"] = 3.0
+    doc["life"].update(pit_contact="open", running_in="plastic", running_in_passes=4)
+    scene = scene_from_dict(doc, "tiny.toml")
+    study = contact_study(scene)
+    one = PositionCycle(study, 1)
+    split = PositionCycle(study, 1, comm=comm, parallel="slabs")
+    ok = split.half_spaces.distributed
+    pits = np.zeros(one.grid.shape, bool), np.zeros(one.grid.shape, bool)
+    pits[0][5:9, 3:7] = pits[1][20:22, 10:20] = True
+    worst = 0.0
+    for c in (one, split):
+        c.set_surfaces(c.surfaces, pits)
+    for j in range(one.steps):
+        a, b = one.solve_step(j), split.solve_step(j)
+        worst = max(worst, rel(b.pressure, a.pressure), rel(b.clearance, a.clearance),
+                    abs(b.phi - a.phi))
+        ok = ok and np.array_equal(b.solid, a.solid)
+    states = [initial_state(c) for c in (one, split)]
+    for c, st in zip((one, split), states, strict=True):
+        c.set_surfaces(c.surfaces)
+        run_in(c, st, scene.life)
+    for b1, b2 in zip(*(st.bodies for st in states), strict=True):
+        worst = max(worst, rel(b2.heights - b2.heights.mean(), b1.heights - b1.heights.mean()))
+        ok = ok and all(np.array_equal(b2.heights, h) for h in comm.allgather(b2.heights))
+    ok = ok and worst <= RTOL
+    if comm.rank == 0:
+        print(f"open pits and running-in ({model}): largest relative difference {worst:.2e}")
+    assert agree(comm, ok)
+
+
+@pytest.mark.mpi(min_size=2)
 def test_a_small_window_solves_its_contact_on_every_rank_alike_as_one_rank(monkeypatch):
     """Below contact_split_min_cells the group's ranks each solve the whole window: the
     one-rank numbers, bit for bit, and no communication in the solver."""
