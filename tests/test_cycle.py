@@ -384,11 +384,11 @@ def test_a_warm_start_that_stalls_is_retried_cold(monkeypatch):
     real = PositionCycle._CONTACT[cyc.level]
     calls = []
 
-    def stalls_when_warm(self, r_now, p_mean, t, p_init, warm):
+    def stalls_when_warm(self, r_now, p_mean, t, p_init, warm, free=None):
         calls.append(bool(warm))
         if warm:
             raise ContactError("stalled")
-        return real(self, r_now, p_mean, t, p_init, warm)
+        return real(self, r_now, p_mean, t, p_init, warm, free)
 
     monkeypatch.setitem(PositionCycle._CONTACT, cyc.level, stalls_when_warm)
     warm = {}
@@ -398,7 +398,7 @@ def test_a_warm_start_that_stalls_is_retried_cold(monkeypatch):
     assert calls == [False, True, False] and warm
     np.testing.assert_array_equal(again.pressure, first.pressure)
 
-    def never(self, r_now, p_mean, t, p_init, warm):
+    def never(self, r_now, p_mean, t, p_init, warm, free=None):
         raise ContactError("no solution")
 
     monkeypatch.setitem(PositionCycle._CONTACT, cyc.level, never)
