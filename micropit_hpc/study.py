@@ -90,10 +90,12 @@ class ItemRun:
         from a checkpoint does not repeat (its surfaces hold it)."""
         if self.life.running_in == "plastic" and self.state.block == 0 \
                 and self.running_in is None:
+            say = self._log if self._log and self._rank == 0 else (lambda s: None)
+            who = f"item {self.item.id} (position {self.item.position})"
+            say(f"{who}: plastic running-in, up to {self.life.running_in_passes} contact-only "
+                "load cycles")
             self.running_in = run_in(self.cycle, self.state, self.life)
-            if self._log and self._rank == 0:
-                self._log(f"item {self.item.id} (position {self.item.position}): "
-                          f"{self.running_in.line()}")
+            say(f"{who}: {self.running_in.line()}")
         return run_block(self.cycle, self.state, self.life, cycles, on_progress)
 
 
