@@ -183,6 +183,49 @@ def test_restore_mean_is_exact_with_clipping():
     assert q.min() >= 0.0 and q.max() <= 4e9
 
 
+def _restore_mean_by_bisection(p, p_mean, p_lim=math.inf):
+    """The definition restore_mean keeps: bisection of the whole bracket down to adjacent
+    floats, np.clip and .mean() at every step (the code before the narrow start)."""
+    lo, hi = p_mean - p.max(), 2 * p_mean - p.min()
+    for _ in range(200):
+        c = 0.5 * (lo + hi)
+        if not lo < c < hi:
+            break
+        if np.clip(p + c, 0.0, p_lim).mean() > p_mean:
+            hi = c
+        else:
+            lo = c
+    q_lo, q_hi = np.clip(p + lo, 0.0, p_lim), np.clip(p + hi, 0.0, p_lim)
+    return q_lo if abs(q_lo.mean() - p_mean) <= abs(q_hi.mean() - p_mean) else q_hi
+
+
+def _restore_cases():
+    rng = np.random.default_rng(7)
+    yield rng.normal(1e9, 2e9, (32, 32)), 1.2e9, 4e9            # clipped at both ends
+    yield rng.normal(1e9, 2e9, (64, 64)), 0.3e9, 4e9
+    yield rng.uniform(0.5e9, 1.5e9, (16, 24)), 1e9, 4e9           # no clipping: c ≈ p̄ − ⟨p⟩
+    yield rng.uniform(0.5e9, 1.5e9, (16, 24)), 1e9, math.inf
+    yield np.full((8, 8), 2e9), 1e9, 4e9                          # constant
+    yield np.zeros((8, 8)), 1e9, 4e9                              # all at zero
+    yield np.where(rng.random((64, 64)) < 0.05, 3.9e9, 0.0), 0.2e9, 4e9   # few spots
+    yield np.where(rng.random(3000) < 0.5, 4e9, 1e3), 3.99e9, 4e9          # 1-D, near p_lim
+    yield np.asfortranarray(rng.normal(0.0, 1e9, (48, 40))), 0.7e9, 3e9    # F order
+    yield rng.lognormal(20.0, 1.0, (30, 50)), 1e-3, 4e9            # tiny mean
+    a = rng.normal(1e9, 1e9, (64, 64))
+    a[a < 0] = 0.0
+    yield a, float(a.mean()), 4e9                                 # already at p̄
+
+
+def test_restore_mean_is_the_bisection_bit_for_bit():
+    """The narrow start (Newton, then a widened bracket) ends the bisection on the same two
+    floats as the full bracket, so the field is the same array bit for bit."""
+    for p, p_mean, p_lim in _restore_cases():
+        q = restore_mean(p, p_mean, p_lim)
+        ref = _restore_mean_by_bisection(p, p_mean, p_lim)
+        assert q.shape == ref.shape and q.flags.f_contiguous == ref.flags.f_contiguous
+        assert np.array_equal(q.view(np.int64), ref.view(np.int64)), (p.shape, p_mean)
+
+
 def test_cached_lubricated_factors_equal_the_computed_ones():
     """The per-step factor cache returns exactly what lubricated_factors computes."""
     g, _ = random_pair()
