@@ -75,6 +75,21 @@ def test_without_init_stages_and_events_do_nothing(fresh):
     assert fresh._stages == {} and fresh._events == {}
 
 
+def test_events_are_registered_in_one_order_whatever_the_first_use():
+    """-log_view matches an event over the ranks by its registration index: init_petsc
+    registers the code's events in the order of EVENTS, so a rank that first meets the
+    wear's events before the contact's (an item with wear first) numbers them alike."""
+    pytest.importorskip("petsc4py")
+    code = ("import micropit_hpc.parallel.petsc as p; p.init_petsc([]); "
+            "e = p.event('implicit_wear'); e.__enter__(); e.__exit__(None, None, None); "
+            "print(' '.join(str(p._events[n].id) for n in p.EVENTS))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         cwd=ROOT, timeout=120)
+    ids = [int(i) for i in out.stdout.split()]
+    assert len(ids) == len(petsc.EVENTS), out.stderr
+    assert ids == sorted(ids) and len(set(ids)) == len(ids)
+
+
 def test_with_petsc_options_stages_and_events(fresh):
     pytest.importorskip("petsc4py")
     assert fresh.init_petsc(["-micropit_level", "4", "-micropit_tol", "1e-6",
@@ -94,7 +109,8 @@ def test_with_petsc_options_stages_and_events(fresh):
     with fresh.event("fatigue"):
         pass
     life, fatigue = fresh._stages["life"], fresh._events["fatigue"]
-    assert len(fresh._stages) == 1 and len(fresh._events) == 1  # cached by name
+    assert len(fresh._stages) == 1  # cached by name
+    assert list(fresh._events) == [*fresh.EVENTS, "fatigue"]
     assert fatigue.getPerfInfo(life.id)["count"] == 2  # inside the stage
     assert fatigue.getPerfInfo()["count"] == 1  # outside it: stages were popped
     out = io.StringIO()
