@@ -138,10 +138,15 @@ def block_fraction(k: int, index: int, count: int, cycles_done: float,
 def inside_note(k: int, item, index: int, count: int, cycles_done: float,
                 block_cycles: float, sub_block: int, step: int, steps: int) -> str:
     """What a report inside block ``k`` says: the item by id and position, its place among
-    this group's items, the sub-block, the cycles of the block done and the time step."""
-    return (f"block {k}: item {item.id} (position {item.position}), {index + 1} of {count} "
-            f"on this rank, sub-block {sub_block}, {cycles_done / 1e6:.3g} of "
-            f"{block_cycles / 1e6:.3g} M cycles, step {step}/{steps}")
+    this group's items, the sub-block, the cycles of the block done and the time step; for
+    sub-block 0, the plastic running-in before the first block, its pass ``step`` of at most
+    ``steps``."""
+    where = (f"block {k}: item {item.id} (position {item.position}), {index + 1} of {count} "
+             "on this rank, ")
+    if sub_block == 0:
+        return where + f"plastic running-in, pass {step} of ≤ {steps}"
+    return where + (f"sub-block {sub_block}, {cycles_done / 1e6:.3g} of "
+                    f"{block_cycles / 1e6:.3g} M cycles, step {step}/{steps}")
 
 
 class NullProgress:

@@ -27,6 +27,7 @@ the depth taken off counted as wear (it shows in the heights and R_q).
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -94,9 +95,11 @@ def plastic_overlap(cycle: PositionCycle, surfaces, pits=None, warm: dict | None
     return maps, worst, (n_plastic / n_contact if n_contact else 0.0)
 
 
-def run_in(cycle: PositionCycle, state: LifeState, life: LifeSpec) -> RunningIn:
+def run_in(cycle: PositionCycle, state: LifeState, life: LifeSpec,
+           on_pass: Callable[[int], None] | None = None) -> RunningIn:
     """Run the surfaces of ``state`` in plastically (module docstring; in place: the heights
-    drop). Collective over the cycle's group; every rank ends with the same surfaces."""
+    drop). Collective over the cycle's group; every rank ends with the same surfaces.
+    ``on_pass(k)``: called after the k-th pass (progress reports; changes nothing)."""
     scene = cycle.scene
     shares = hardness_shares(scene.body1.hardness, scene.body2.hardness)
     before = [b.heights.copy() for b in state.bodies]
@@ -108,6 +111,8 @@ def run_in(cycle: PositionCycle, state: LifeState, life: LifeSpec) -> RunningIn:
         maps, worst, share = plastic_overlap(cycle, surfaces, pits, warm)
         overlaps.append(worst)
         plastic.append(share)
+        if on_pass is not None:
+            on_pass(len(overlaps))
         if worst <= stop:
             break
         for b, s, m in zip(state.bodies, shares, maps, strict=True):

@@ -87,14 +87,19 @@ class ItemRun:
                   on_progress: Callable[..., None] | None = None) -> BlockRecord:
         """The next block (:func:`~micropit_hpc.life.run_block`); before the first block of
         a fresh state the plastic running-in (``life.running_in``), which a run restarted
-        from a checkpoint does not repeat (its surfaces hold it)."""
+        from a checkpoint does not repeat (its surfaces hold it). ``on_progress`` as
+        run_block's; during the running-in it is called after each pass k as
+        ``on_progress(0, block_cycles, 0, k, running_in_passes)`` (sub-block 0)."""
         if self.life.running_in == "plastic" and self.state.block == 0 \
                 and self.running_in is None:
             say = self._log if self._log and self._rank == 0 else (lambda s: None)
             who = f"item {self.item.id} (position {self.item.position})"
             say(f"{who}: plastic running-in, up to {self.life.running_in_passes} contact-only "
                 "load cycles")
-            self.running_in = run_in(self.cycle, self.state, self.life)
+            total = self.life.block if cycles is None else cycles
+            tick = None if on_progress is None else (
+                lambda k: on_progress(0.0, total, 0, k, self.life.running_in_passes))
+            self.running_in = run_in(self.cycle, self.state, self.life, tick)
             say(f"{who}: {self.running_in.line()}")
         return run_block(self.cycle, self.state, self.life, cycles, on_progress)
 

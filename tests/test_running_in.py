@@ -110,6 +110,23 @@ def test_an_item_runs_in_once_before_its_first_block(monkeypatch):
     assert len(calls) == 1 and restarted.running_in is None
 
 
+def test_the_running_in_reports_each_pass_as_sub_block_zero():
+    """ItemRun.run_block's progress hook hears every pass of the running-in, as sub-block 0
+    (step k of at most running_in_passes), before the first sub-block's steps; the progress
+    line names it."""
+    from micropit_hpc.progress import inside_note
+
+    scene = scene_from_dict(_doc("dry", passes=4), "t.toml")
+    run = ItemRun(scene, WorkItem(0, 1, 0.0, 1.0, 0))
+    heard = []
+    run.run_block(on_progress=lambda *a: heard.append(a))
+    block = scene.life.block
+    assert heard[:4] == [(0.0, block, 0, k, 4) for k in (1, 2, 3, 4)]
+    assert heard[4][2] == 1 and all(h[2] >= 1 for h in heard[4:])
+    note = inside_note(1, WorkItem(0, 1, 0.0, 1.0, 0), 0, 1, *heard[1])
+    assert note.endswith("1 of 1 on this rank, plastic running-in, pass 2 of ≤ 4")
+
+
 def test_a_running_in_that_is_not_offered_is_refused():
     doc = _doc()
     doc["life"]["running_in"] = "elastic"
