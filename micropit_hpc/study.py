@@ -122,7 +122,7 @@ def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord], lambda_: flo
                          r.Rq[i] * 1e6, lambda_gf, lambda_gf / lambda_gfp, r.slope[i],
                          100 * r.low_cycle_damage[i], 100 * r.low_cycle_pits[i],
                          100 * r.plastic_share, r.deep_damage[i], r.pit_depth_max[i] * 1e6,
-                         flags))
+                         r.phi, 100 * r.pit_load, r.sub_blocks, r.wear_cycles, flags))
     return rows
 
 

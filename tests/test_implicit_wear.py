@@ -303,6 +303,14 @@ def test_a_block_after_a_restart_repeats_the_straight_run():
     a = initial_state(straight)
     first = run_block(straight, a, scene.life)
     assert first.wear_cycles > 0 and min(first.wear_mean) > 0
+    # summary.csv carries the block's numerics (docs/outputs.md)
+    from micropit_hpc.plan import WorkItem
+    from micropit_hpc.study import SUMMARY_COLUMNS, summary_rows
+    rows = [dict(zip(SUMMARY_COLUMNS, r, strict=True)) for r in summary_rows(
+        WorkItem(0, 1, 1e-11, 1.0, 0), study.conditions[0], [first], 1.0)]
+    for r in rows:
+        assert (r["wear_cycles"], r["sub_blocks"]) == (first.wear_cycles, first.sub_blocks)
+        assert r["phi"] == first.phi and r["pit_load_pct"] == 100 * first.pit_load
     b = copy.deepcopy(a)
     run_block(straight, a, scene.life)
     run_block(PositionCycle(study, 1, k_lub=1e-11), b, scene.life)

@@ -45,6 +45,9 @@ def test_run_writes_summary_and_results(tmp_path, capsys):
     for r in rows:
         assert 0.0 <= float(r["Ap_pct"]) <= 100.0
         assert 0.0 <= float(r["max_damage"]) < 1.0
+        assert 0.0 <= float(r["phi"]) <= 1.0 and 0.0 <= float(r["pit_load_pct"]) <= 100.0
+        assert int(r["sub_blocks"]) >= 1
+        assert int(r["wear_cycles"]) == 0       # the relaxed wear of tiny_doc: none spent
     with h5py.File(tmp_path / "out" / "results.h5", "r") as f:
         assert f.attrs["complete"] == 1
         if (ROOT / ".git").exists():            # the code that made the numbers, traceable

@@ -291,6 +291,7 @@ SUMMARY_UNITS = {"item": "1", "position": "1", "S": "1", "p0_GPa": "GPa", "Lambd
                  "wear_um": "µm", "Rq_um": "µm", "lambda_GF": "1", "S_lambda": "1",
                  "slope_dq": "rad", "low_cycle_damage_pct": "%", "low_cycle_pits_pct": "%",
                  "p_lim_area_pct": "%", "deep_damage_ratio": "1", "pit_depth_max_um": "µm",
+                 "phi": "1", "pit_load_pct": "%", "sub_blocks": "1", "wear_cycles": "1",
                  "flags": ""}
 #: What a results.h5 must hold for :func:`load_results` (older files may lack the rest).
 _REQUIRED_GRID = ("x", "y", "z", "dx", "dy")
