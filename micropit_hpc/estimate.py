@@ -19,7 +19,8 @@ comes to the measured peaks, and the command that measures them, are in docs/per
 "Streamed stresses" (below about 64² the fixed CYCLE_MIB makes it an overestimate).
 The time is an order of magnitude only (the contact solver's iterations and the adaptive splits
 of a block vary with Λ and wear): about :data:`SECONDS_PER_POINT_LAYER_STEP` s per grid point,
-layer + 4, and time step."""
+layer + 4, and time step, fitted to two whole runs at the converged default (adaptive blocks,
+implicit wear) on 2 ranks (docs/jobs.md, "The estimate")."""
 
 from __future__ import annotations
 
@@ -37,7 +38,7 @@ TRANSIENT_B_PER_POINT = 1400.0
 STEP_B_PER_POINT = 80.0
 STRESS_B_PER_POINT_LAYER_STEP = 60.0
 ITEM_B_PER_POINT = 1100.0
-SECONDS_PER_POINT_LAYER_STEP = 3.6e-6
+SECONDS_PER_POINT_LAYER_STEP = 1.2e-5
 GIB = 2.0 ** 30
 
 
