@@ -226,7 +226,9 @@ def test_two_runs_started_into_one_folder(tmp_path):
     """The second run waits for the lock (outdir.LOCK_WAIT_S), then is refused naming the
     live first one, which then stops cleanly."""
     doc = tiny_doc(slide_roll=(0.3, 0.15))
-    doc["life"]["cycles_M"] = 100.0
+    # long enough to outlast the second run's wait on any machine (100 blocks took 11 s
+    # here, against the second run's ~13 s); the STOP file ends it at the next block
+    doc["life"]["cycles_M"] = 2000.0
     scene = write_scene(tmp_path / "t.toml", doc)
     out = tmp_path / "out"
     env = dict(os.environ, PYTHONPATH=str(ROOT))
