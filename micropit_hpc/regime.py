@@ -18,7 +18,9 @@ summary.csv and results.h5) and into one warning line per block for the run log:
   (z_max): its damage below was never evaluated.
 * ``wear_unresolved``: the implicit wear spent its budget of contact-only load cycles in a
   sub-block (``life.wear_max_iter`` × :data:`~micropit_hpc.life.WEAR_BUDGET`) and integrated
-  the rest of it with the cell-relaxed update (a wear far faster than the block resolves).
+  the rest of it with the cell-relaxed update (a wear far faster than the block resolves), or
+  it accepted a step of the smallest length whose fixed point was not solved to
+  ``life.wear_tol`` (the block's ``wear_residual`` above it).
 * ``pit_load``: more than a quarter of the contact load fell on pitted columns in the
   block's solves (:attr:`~micropit_hpc.state.BlockRecord.pit_load`). With
   ``life.pit_contact = "unloaded"`` the contact is solved on the surface around the pits, so
@@ -68,8 +70,10 @@ def window_problems(scene, grid) -> list[str]:
     return out
 
 
-def block_flags(rec, z_max: float, window_ok: bool = True) -> list[str]:
-    """The flags (module docstring) of one block record; empty inside the model's range."""
+def block_flags(rec, z_max: float, window_ok: bool = True,
+                wear_tol: float = math.inf) -> list[str]:
+    """The flags (module docstring) of one block record; empty inside the model's range.
+    ``wear_tol``: the scene's ``life.wear_tol`` (the implicit wear's residual over R_q)."""
     lim = LIMITS
     flags = []
     if max(rec.Ap) >= lim["saturated_Ap_pct"]:
@@ -84,7 +88,7 @@ def block_flags(rec, z_max: float, window_ok: bool = True) -> list[str]:
         flags.append("pits_below_layers")
     if not window_ok:
         flags.append("window")
-    if rec.wear_fallback > 0.0:
+    if rec.wear_fallback > 0.0 or rec.wear_residual > wear_tol:
         flags.append("wear_unresolved")
     if rec.pit_load > lim["pit_load_share"]:
         flags.append("pit_load")
@@ -98,13 +102,13 @@ def _items(ids: Sequence[int]) -> str:
 
 
 def block_warning(block: int, records: Mapping[int, object], z_max: float,
-                  window_ok: bool = True) -> str | None:
+                  window_ok: bool = True, wear_tol: float = math.inf) -> str | None:
     """One warning line for the run log on the last records of a block (item id → record), or
-    None when every item is inside the model's range."""
+    None when every item is inside the model's range (``wear_tol`` as :func:`block_flags`)."""
     lim = LIMITS
     found: dict[str, list[int]] = {}
     for iid, rec in records.items():
-        for f in block_flags(rec, z_max, window_ok):
+        for f in block_flags(rec, z_max, window_ok, wear_tol):
             found.setdefault(f, []).append(iid)
     if not found:
         return None
@@ -138,11 +142,20 @@ def block_warning(block: int, records: Mapping[int, object], z_max: float,
             parts.append(f"pits deeper than the stress layers ({z_max * 1e6:.3g} µm) on "
                          f"{_items(ids)}, up to {v * 1e6:.3g} µm (item {i})")
         elif flag == "wear_unresolved":
-            v, i = worst(ids, lambda r: r.wear_fallback)
-            parts.append(f"the implicit wear spent its budget of contact-only cycles on "
-                         f"{_items(ids)} and integrated up to {100 * v:.3g} % of the block "
-                         f"(item {i}) with the cell-relaxed update, whose depth follows the "
-                         "cell size: lower life.block_M or wear.k_lub_s")
+            spent = [j for j in ids if records[j].wear_fallback > 0.0]
+            loose = [j for j in ids if records[j].wear_residual > wear_tol]
+            if spent:
+                v, i = worst(spent, lambda r: r.wear_fallback)
+                parts.append(f"the implicit wear spent its budget of contact-only cycles on "
+                             f"{_items(spent)} and integrated up to {100 * v:.3g} % of the "
+                             f"block (item {i}) with the cell-relaxed update, whose depth "
+                             "follows the cell size: lower life.block_M or wear.k_lub_s")
+            if loose:
+                v, i = worst(loose, lambda r: r.wear_residual)
+                parts.append(f"the implicit wear accepted steps of its smallest length whose "
+                             f"fixed point it did not solve on {_items(loose)}, residual up to "
+                             f"{v:.3g} R_q (item {i}) against life.wear_tol = {wear_tol:g}: "
+                             "raise life.wear_max_iter or lower life.min_sub_block_M")
         elif flag == "pit_load":
             v, i = worst(ids, lambda r: r.pit_load)
             parts.append(f"more than {100 * lim['pit_load_share']:g} % of the contact load fell "
@@ -216,7 +229,7 @@ class RangeWarnings:
                          f"{key} = {limit:g}; {advice}")
         st = self.study
         line = block_warning(k, {iid: r[-1] for iid, r in records.items() if r}, st.z_max,
-                             not st.window_problems)
+                             not st.window_problems, self.life.wear_tol)
         if line:
             self.log(line)
 

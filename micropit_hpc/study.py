@@ -106,7 +106,8 @@ class ItemRun:
 
 def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord], lambda_: float,
                  lambda_gf: float = math.nan, lambda_gfp: float = math.nan,
-                 z_max: float = math.inf, window_ok: bool = True) -> list[tuple]:
+                 z_max: float = math.inf, window_ok: bool = True,
+                 wear_tol: float = math.inf) -> list[tuple]:
     """Rows of summary.csv (:data:`SUMMARY_COLUMNS`) for one item (contact conditions ``c``),
     one per body and block. ``lambda_gf``: the item's ISO/TS 6336-22 λ_GF; ``S_lambda`` =
     λ_GF/λ_GFP at the item's position (the standard's S_λ is its minimum over the path,
@@ -114,7 +115,7 @@ def summary_rows(item: WorkItem, c, records: Sequence[BlockRecord], lambda_: flo
     (:func:`~micropit_hpc.regime.block_flags`, joined by ``;``, ``none`` inside it)."""
     rows = []
     for r in records:
-        flags = ";".join(block_flags(r, z_max, window_ok)) or "none"
+        flags = ";".join(block_flags(r, z_max, window_ok, wear_tol)) or "none"
         for body in (1, 2):
             i = body - 1
             rows.append((item.id, item.position, c.S, c.p0 / 1e9, lambda_, item.k_lub, body,
@@ -236,7 +237,8 @@ class Study:
             rows += summary_rows(it, self.base.conditions[it.position - 1], records[it.id],
                                  self.item_lambda(it), lambda_gf=self.item_lambda_gf(it),
                                  lambda_gfp=self.method_b.lambda_gfp, z_max=self.z_max,
-                                 window_ok=not self.window_problems)
+                                 window_ok=not self.window_problems,
+                                 wear_tol=self.scene.life.wear_tol)
         return rows
 
     def gather_maps(self) -> dict[int, dict[str, np.ndarray]]:

@@ -227,6 +227,22 @@ def test_each_limit_raises_its_flag_and_one_warning_line(kw, flag):
     assert block_flags(inside, 25e-6, window_ok=False) == ["window"]
 
 
+def test_an_implicit_wear_step_accepted_unsolved_is_flagged():
+    """A block whose implicit wear accepted a step of the smallest length with its residual
+    above life.wear_tol is flagged wear_unresolved like a budget fallback, and its warning
+    says which and by how much; without the tolerance (the default inf) it is not."""
+    tol = 0.005
+    solved, loose = _record(wear_residual=tol), _record(wear_residual=0.012)
+    assert block_flags(solved, 25e-6, wear_tol=tol) == []
+    assert block_flags(loose, 25e-6) == []
+    assert block_flags(loose, 25e-6, wear_tol=tol) == ["wear_unresolved"]
+    both = _record(wear_residual=0.02, wear_fallback=0.1)
+    line = block_warning(2, {0: solved, 3: loose, 5: both}, 25e-6, wear_tol=tol)
+    assert "residual up to 0.02 R_q (item 5) against life.wear_tol = 0.005" in line
+    assert "items 3, 5" in line and "spent its budget of contact-only cycles on item 5" in line
+    assert "item 0" not in line
+
+
 @pytest.mark.slow
 def test_a_run_reports_the_range_in_summary_log_and_results(tmp_path, capsys):
     """The quick gear scene's position 2 (single-pair zone, dry, asperity stresses far past the

@@ -130,7 +130,8 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
                 for name, unit in RECORD_UNITS.items():
                     g[name] = np.array([getattr(r, name) for r in recs])  # (blocks[, 2 bodies])
                     g[name].attrs["unit"] = unit
-                flags = [";".join(block_flags(r, study.z_max, not study.window_problems))
+                flags = [";".join(block_flags(r, study.z_max, not study.window_problems,
+                                              study.scene.life.wear_tol))
                          or "none" for r in recs]
                 g.create_dataset("flags", data=np.array(flags, dtype=object),
                                  dtype=h5py_module().string_dtype())
