@@ -8,7 +8,9 @@ The surfaces are one realisation made on the ``--ref`` grid (default 256²) and 
 roughness sample. Each run uses the scene's settings otherwise (the converged default:
 adaptive blocks, implicit wear); ``--grids`` runs at the scene's ΔN, ``--blocks-M`` at the
 scene's grid (those first). One rank, one process. Rows go to ``--csv`` as they finish; a
-re-run skips the runs already there (same case, k_lub, n and ΔN).
+re-run skips the runs already there (same case, k_lub, n and ΔN). ``--relief-share`` and
+``--anderson-memory`` change the implicit wear's solver (docs/life.md, "Implicit wear"; give
+such runs their own ``--csv``: the skip does not tell them apart).
 
     python benchmarks/bench_wear_convergence.py --position 3 --k-lub 5e-11 --grids 64 128 \\
         --blocks-M 1 0.5 0.25 0.1 --cycles-M 3 --csv benchmarks/results/wear_convergence.csv
@@ -25,6 +27,7 @@ from pathlib import Path
 
 from table import emit, line
 
+from micropit_hpc import implicit_wear
 from micropit_hpc.conditions import contact_study
 from micropit_hpc.plan import WorkItem, reference_half_width, window_grid
 from micropit_hpc.scene import load_scene
@@ -93,8 +96,18 @@ def main(argv=None) -> int:
     ap.add_argument("--ref", type=int, default=256, help="grid of the surface realisation")
     ap.add_argument("--no-fatigue", action="store_true",
                     help="S–N intercept 1e5 MPa: no damage, no pits (the wear alone)")
+    ap.add_argument("--relief-share", type=float, default=None,
+                    help="θ of the implicit wear's preconditioner (default: "
+                         "implicit_wear.RELIEF_SHARE); a solver experiment, not a scene key")
+    ap.add_argument("--anderson-memory", type=int, default=None,
+                    help="past iterates of the implicit wear's Anderson step (default: "
+                         "implicit_wear.MEMORY)")
     ap.add_argument("--csv", default=None)
     a = ap.parse_args(argv)
+    if a.relief_share is not None:
+        implicit_wear.RELIEF_SHARE = a.relief_share
+    if a.anderson_memory is not None:
+        implicit_wear.MEMORY = a.anderson_memory
     base = load_scene(a.scene)
     reference = reference_surfaces(base, a.ref)
     path = Path(a.csv) if a.csv else None

@@ -100,11 +100,12 @@ class SpectralRelief:
     periodic grid of ``shape``: ``stiffness`` the half-spaces' Ŝ per mode of the real FFT
     (shape (nx, ny//2+1), 0 at the mean mode: a uniform wear relieves nothing), ``K0`` their
     cell self-compliance [m/Pa], with which :attr:`~micropit_hpc.wear.WearRate.relax` [1/cycle]
-    gives D = ρ K₀ [m/(Pa cycle)], and ``share`` θ."""
+    gives D = ρ K₀ [m/(Pa cycle)], and ``share`` θ (None: :data:`RELIEF_SHARE`)."""
 
     def __init__(self, stiffness: np.ndarray, K0: float, shape: tuple[int, int],
-                 share: float = RELIEF_SHARE):
-        self.stiffness, self.K0, self.shape, self.share = stiffness, float(K0), shape, share
+                 share: float | None = None):
+        self.stiffness, self.K0, self.shape = stiffness, float(K0), shape
+        self.share = RELIEF_SHARE if share is None else float(share)
         # the cached pre-planned real FFT of the window, as the half-spaces' own response
         self._fft = rfft_plan(shape)
         self._transfer = self._fft.interleaved(stiffness)
@@ -143,7 +144,7 @@ class SpectralRelief:
 
 
 def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tuple, n: float,
-                   tol: float, max_iter: int = 60, memory: int = MEMORY,
+                   tol: float, max_iter: int = 60, memory: int | None = None,
                    errors: tuple[type[Exception], ...] = (),
                    relief: SpectralRelief | None = None,
                    guess: tuple[np.ndarray, ...] | None = None) -> ImplicitWear:
@@ -153,13 +154,15 @@ def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tupl
     a contact-only load cycle on the surfaces worn by ``w`` (a tuple of depth maps);
     ``start``: the rates on the unworn surfaces (w = 0), already known from the sub-block's
     full load cycle; ``n``: the sub-block's cycles; ``tol``: the residual max |n Δh(w) − w|
-    [m] to reach; ``max_iter``: the most contact-only cycles to spend; ``errors``: exceptions
+    [m] to reach; ``max_iter``: the most contact-only cycles to spend; ``memory``: the past
+    iterates Anderson combines (None: :data:`MEMORY`); ``errors``: exceptions
     of ``rates`` that end the solve unconverged with the best iterate so far (an extrapolated
     iterate can be a surface whose contact does not converge; the caller shortens the step);
     ``relief``: the preconditioner (None: plain Anderson); ``guess``: the first iterate in
     place of the explicit n Δh(0) (the iteration goes on from it; measured: from the last
     step's depth it saves about half the iterations, though its residual can exceed |n Δh(0)|).
     Without wear (every rate zero) no contact is solved."""
+    memory = MEMORY if memory is None else int(memory)
     shapes = [r.rate.shape for r in start]
     sizes = [int(np.prod(s)) for s in shapes]
 
