@@ -148,3 +148,82 @@ def test_a_failing_coarse_scan_falls_back_to_the_scan_on_the_window(monkeypatch)
     assert _fine_solves(model) == list(mixed.PHI_SCAN)
     assert sol.phi == plain.phi == 1.0
     assert np.array_equal(sol.pressure, plain.pressure)
+
+
+def _scan_solve(h_mean, monkeypatch, tolerance, margin=mixed.SCAN_SIGN_MARGIN):
+    """The mixed solution on the 128² pair (the scan on the window) with the scan's trials
+    below φ = 1 solved to ``tolerance`` (None: the scene's), its solves' iterations and the
+    dry solves made."""
+    g, (z1, z2) = random_pair(128)
+    fft = rfft_plan(g.shape)
+    r = (fft.forward(-z1), fft.forward(-z2))
+    solves = []
+
+    def counted(*args, **kwargs):
+        sol = solve_dry_contact(*args, **kwargs)
+        solves.append((args[2], kwargs["tol"]))
+        return sol
+
+    monkeypatch.setattr(mixed, "SCAN_TOLERANCE", tolerance)
+    monkeypatch.setattr(mixed, "SCAN_SIGN_MARGIN", margin)
+    monkeypatch.setattr(mixed, "solve_dry_contact", counted)
+    model = mixed_model(g, h_mean=h_mean)
+    sol = model.solve(r, r, 1.0e9, 5e-5)
+    return sol, solves, model.last_scan, z1.std()
+
+
+@pytest.mark.parametrize("h_mean", [1e-12, 0.1e-6, 0.35e-6])
+def test_the_scans_loose_trials_give_the_tight_scans_answer(h_mean, monkeypatch):
+    """The scan's trials below φ = 1 solved to SCAN_TOLERANCE: the same bracket, and the
+    answer (the root search's, or the trial φ = 1 itself) within the scene's tolerance of the
+    scan made at the scene's tolerance, where the root is φ = 1, between two trials and below
+    the first; the trials at the loose tolerance, the answer's solves at the scene's."""
+    tight, tight_solves, tight_scan, rq = _scan_solve(h_mean, monkeypatch, None)
+    loose, loose_solves, loose_scan, _ = _scan_solve(h_mean, monkeypatch, 1e-3)
+    tol = SOLVER["tol"]
+    assert all(t == tol for _, t in tight_solves)
+    trials = [(p, t) for p, t in loose_solves if 0.0 < p < 1.0e9 and t != tol]
+    assert trials and all(t == 1e-3 for _, t in trials)
+    # the same trials, each with the sign of the tight scan's balance
+    scan = [(phi, f) for phi, _, f in loose_scan if phi in mixed.PHI_SCAN]
+    ref = [(phi, f) for phi, _, f in tight_scan if phi in mixed.PHI_SCAN]
+    assert [phi for phi, _ in scan] == [phi for phi, _ in ref]
+    assert all((f > 0) == (f_ref > 0) for (_, f), (_, f_ref) in zip(scan, ref, strict=True))
+    # both root searches stop within the film tolerance (1e-4 h̄) of the balance: their φ and
+    # pressures agree to that order (measured: 2e-6 and 3e-6 of the largest pressure)
+    assert loose.phi == pytest.approx(tight.phi, rel=1e-4)
+    assert np.abs(loose.pressure - tight.pressure).max() < 1e-4 * tight.pressure.max()
+    assert loose.pressure.mean() == pytest.approx(1.0e9, rel=1e-12)
+    if h_mean == 1e-12:         # the answer is the trial φ = 1, at the scene's tolerance
+        assert loose.phi == tight.phi == 1.0
+        assert loose_solves[-1] == (1.0e9, tol)
+        assert np.abs(loose.pressure - tight.pressure).max() < 1e-6 * tight.pressure.max()
+        assert np.abs(loose.clearance - tight.clearance).max() < 1e-6 * rq
+    else:
+        c_rho = rheology.density_correction(loose.phi * 1.0e9)
+        assert loose.film_mean == pytest.approx(c_rho * h_mean, rel=2e-4)
+    assert loose.iterations < tight.iterations
+
+
+def test_a_loose_trial_near_the_film_is_solved_again_at_the_scenes_tolerance(monkeypatch):
+    """A trial whose balance is within the margin of the loose solve's error is solved again
+    at the scene's tolerance (with a margin that takes every trial: each one twice)."""
+    sol, solves, _, _ = _scan_solve(1e-12, monkeypatch, 1e-3, margin=1e12)
+    loads = [p for p, _ in solves if 0.0 < p < 1.0e9]
+    assert loads and all(loads.count(p) == 2 for p in set(loads))
+    tol = SOLVER["tol"]
+    for p in set(loads):
+        assert [t for q, t in solves if q == p] == [1e-3, tol]
+    assert sol.phi == 1.0
+
+
+def test_a_loose_trial_that_fails_is_solved_at_the_scenes_tolerance(monkeypatch):
+    """A loose trial's solve that does not converge in SCAN_MAX_ITERATIONS (here 1, so every
+    one fails) is made at the scene's tolerance from the same start: the tight scan's answer
+    bit for bit, where the root lies between two trials."""
+    tight, tight_solves, _, _ = _scan_solve(0.1e-6, monkeypatch, None)
+    monkeypatch.setattr(mixed, "SCAN_MAX_ITERATIONS", 1)
+    loose, loose_solves, _, _ = _scan_solve(0.1e-6, monkeypatch, 1e-3)
+    assert loose_solves == tight_solves         # the failed loose solves raised: not counted
+    assert loose.phi == tight.phi
+    assert np.array_equal(loose.pressure, tight.pressure)
