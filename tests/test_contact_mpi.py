@@ -4,8 +4,9 @@ Run under ``mpirun -n 2 ... -m pytest --with-mpi -m mpi``. The dry solver
 (:func:`~micropit_hpc.lubrication.dry.solve_dry_contact`) and the mixed model on the x rows of
 a :class:`~micropit_hpc.parallel.slab.Slab` of ``COMM_WORLD`` against the same problem solved
 on the whole window by each rank alone: equal to 1e-12 relative, the iteration counts within
-one. Every verdict is allgathered before it is asserted (a failure on one rank must not hang
-the other).
+one (the mixed model with its φ-scan trials at a loose tolerance: to the solver's tolerance).
+Every verdict is allgathered before it is asserted (a failure on one rank must not hang the
+other).
 """
 
 from __future__ import annotations
@@ -155,15 +156,29 @@ def test_a_failing_dry_contact_fails_on_every_rank():
 
 @pytest.mark.mpi(min_size=2)
 @pytest.mark.timeout(300)
-@pytest.mark.parametrize("model", ["auto", "dry"])
-def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model, monkeypatch):
+@pytest.mark.parametrize("model,scan", [("auto", "tight"), ("auto", "loose"), ("dry", "tight")])
+def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model, scan, monkeypatch):
     """Every time step of the tiny disc scene (mixed model, and the dry one) with the window
     split over 2 ranks (``--ranks-per-item 2``), three times: the later passes warm-started by
     the earlier ``warm`` dicts, as a life block's evaluations are, the last with unloaded
-    pits. Pressure, clearance and φ within 1e-12 relative, the contact sets equal."""
+    pits. Pressure, clearance and φ within 1e-12 relative, the contact sets equal, with every
+    dry solve at the scene's tolerance (``scan = "tight"``).
+
+    With the mixed model's default, the φ scan's trials below φ = 1 solved to
+    ``mixed.SCAN_TOLERANCE`` (``"loose"``), a round-off difference can move where a loose solve
+    stops or a yielded point's release at its loose threshold: the trials' pressures, which
+    only start the later solves, then differ at the loose tolerance's level, and the answers,
+    each a solve to the scene's tolerance, agree to that tolerance: within 10 × TOL relative
+    (measured 7.7e-11; the pressure error of a solve stopped at ε ≤ tol is a few tol at
+    these sizes, docs/performance.md §11)."""
     from mpi4py import MPI
 
+    from micropit_hpc.lubrication import mixed
+
     comm = MPI.COMM_WORLD
+    if scan == "tight":
+        monkeypatch.setattr(mixed, "SCAN_TOLERANCE", None)
+    bound = RTOL if scan == "tight" else 10 * TOL
     monkeypatch.setenv("MICROPIT_CONTACT_SPLIT_MIN_CELLS", "0")      # split even 27²
     doc = tiny_doc(slide_roll=(0.3,))
     doc["window"]["n"] = 27
@@ -174,7 +189,8 @@ def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model, monkeyp
     split = PositionCycle(study, 1, comm=comm, parallel="slabs")
     ok = split.slab.nx_local == (14 if comm.rank == 0 else 13) and split.half_spaces.distributed
     ok = ok and split.level == one.level == ("mixed" if model == "auto" else "dry")
-    worst, iters = 0.0, []
+    worst, iters, flips = 0.0, [], 0
+    h_min = scene.lubrication.h_min
     # a mixed step adds up the iterations of its ~5–10 dry solves (load-fraction scan and
     # root search), each of which may stop one iteration apart at round-off: measured ±2
     slack = 1 if model == "dry" else 3
@@ -193,17 +209,22 @@ def test_cycle_steps_of_the_tiny_disc_on_two_ranks_equal_one_rank(model, monkeyp
             ok = ok and b.pressure.shape == a.pressure.shape == one.grid.shape
             worst = max(worst, rel(b.pressure, a.pressure), rel(b.clearance, a.clearance),
                         abs(b.phi - a.phi))
-            ok = ok and np.array_equal(b.solid, a.solid)
+            # the contact sets equal; with the loose scan, but for points whose clearance is
+            # within the bound of h_min (a difference at the tolerance can flip them)
+            edge = np.abs(a.clearance - h_min) <= bound * np.abs(a.clearance).max()
+            ok = ok and np.array_equal(b.solid | edge, a.solid | edge)
+            flips += int(np.count_nonzero(b.solid != a.solid))
+            ok = ok and (scan == "loose" or np.array_equal(b.solid, a.solid))
             ok = ok and abs(b.iterations - a.iterations) <= slack + a.iterations // 10
             iters.append((a.iterations, b.iterations))
             # the whole-window fields are the same on every rank, bit for bit
             mine = (b.pressure, b.clearance, b.traction1)
             ok = ok and all(np.array_equal(x, y) for theirs in comm.allgather(mine)
                             for x, y in zip(mine, theirs, strict=True))
-    ok = ok and worst <= RTOL and any(a > 0 for a, _ in iters)
+    ok = ok and worst <= bound and any(a > 0 for a, _ in iters)
     if comm.rank == 0:
-        print(f"tiny disc ({model}): iterations {iters}; largest relative difference "
-              f"{worst:.2e}")
+        print(f"tiny disc ({model}, {scan} scan): iterations {iters}; largest relative "
+              f"difference {worst:.2e}; contact-set points that differ {flips}")
     assert agree(comm, ok)
 
 
@@ -353,7 +374,8 @@ def test_steps_raised_by_the_kinematics_are_shared_over_the_ranks():
 def test_the_coarse_phi_scan_on_two_ranks_equals_one_rank(h_mean, monkeypatch):
     """The mixed model's φ scan made on the coarsened window (every rank alike, serial) and
     its bracket solved over the slabs: φ, pressure and clearance equal to the one-rank
-    solution to 1e-12, where the root is φ = 1 and between two trials."""
+    solution to 1e-12, where the root is φ = 1 and between two trials (every dry solve at the
+    scene's tolerance)."""
     from helpers import mixed_settings, random_pair
     from mpi4py import MPI
 
@@ -362,6 +384,9 @@ def test_the_coarse_phi_scan_on_two_ranks_equals_one_rank(h_mean, monkeypatch):
     from micropit_hpc.spectral import rfft_plan
 
     monkeypatch.setattr(mixed, "SCAN_POINTS", 32)      # 128² → 32² (SCAN_LEVELS 3: two halvings)
+    # every dry solve at the scene's tolerance, so that the two agree to round-off (the loose
+    # trials' agreement to the tolerance: the tiny disc's test above)
+    monkeypatch.setattr(mixed, "SCAN_TOLERANCE", None)
     g, (z1, z2) = random_pair(128)
     fft = rfft_plan(g.shape)
     r = (fft.forward(-z1), fft.forward(-z2))
