@@ -152,8 +152,9 @@ def test_a_failing_coarse_scan_falls_back_to_the_scan_on_the_window(monkeypatch)
 
 def _scan_solve(h_mean, monkeypatch, tolerance, margin=mixed.SCAN_SIGN_MARGIN):
     """The mixed solution on the 128² pair (the scan on the window) with the scan's trials
-    below φ = 1 solved to ``tolerance`` (None: the scene's), its solves' iterations and the
-    dry solves made."""
+    below φ = 1 solved to ``tolerance`` (None: the scene's) and the sign margin ``margin``:
+    (solution, the dry solves made as (load, tolerance), the film balances of its scan, R_q of
+    the first surface)."""
     g, (z1, z2) = random_pair(128)
     fft = rfft_plan(g.shape)
     r = (fft.forward(-z1), fft.forward(-z2))
