@@ -324,28 +324,27 @@ class MixedLubrication:
             if warm is not None:
                 start = warm.get(phi if phi in PHI_SCAN else "root", start)
             gap0 = fft.inverse(clearance_spectrum(phi))[rows]
+
+            def dry(p_start, tol=prm.tol, max_iter=prm.max_iter):
+                return solve_dry_contact(gap0, hs, phi * p_mean, p_lim=self.p_lim, tol=tol,
+                                         max_iter=max_iter, p_init=p_start, free=held)
+
             loose = (near is None and 0.0 < phi < PHI_SCAN[-1]
                      and SCAN_TOLERANCE is not None and SCAN_TOLERANCE > prm.tol)
             if loose:
                 try:
-                    sol = solve_dry_contact(gap0, hs, phi * p_mean, p_lim=self.p_lim,
-                                            tol=SCAN_TOLERANCE,
-                                            max_iter=min(prm.max_iter, SCAN_MAX_ITERATIONS),
-                                            p_init=start, free=held)
+                    sol = dry(start, SCAN_TOLERANCE, min(prm.max_iter, SCAN_MAX_ITERATIONS))
                 except ContactError:    # e.g. a yielded set that flips at the loose residual
                     loose = False
             if not loose:
-                sol = solve_dry_contact(gap0, hs, phi * p_mean, p_lim=self.p_lim, tol=prm.tol,
-                                        max_iter=prm.max_iter, p_init=start, free=held)
+                sol = dry(start)
             state["iters"] += sol.iterations
             f = balance(phi, sol)
             if loose:
                 (total, squares) = group.sums(gap0.sum(), (gap0 * gap0).sum())
                 rms = math.sqrt(max(squares / N - (total / N) ** 2, 0.0))
                 if abs(f) <= SCAN_SIGN_MARGIN * SCAN_TOLERANCE * rms:
-                    sol = solve_dry_contact(gap0, hs, phi * p_mean, p_lim=self.p_lim,
-                                            tol=prm.tol, max_iter=prm.max_iter,
-                                            p_init=sol.pressure, free=held)
+                    sol = dry(sol.pressure)
                     state["iters"] += sol.iterations
                     f = balance(phi, sol)
             if group.any(sol.pressure):
