@@ -10,13 +10,13 @@
 # `life.integration = "paper"`, from scripts/paper-scene.sh) into runs/<scene>_paper/
 # (PAPER_ONLY=1: only the twins). The run times are to be re-measured for the implicit default
 # (the last ones measured the previous schemes).
+# RESUME=1 goes on from each run's checkpoints (scripts/validate-run.sh).
 # Exit status 1 if a trend fails on a scene as written (the twins' verdicts are only printed).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
 py=$(bash scripts/setup.sh)
 source scripts/mpi-env.sh
-np=${NP:-2}
 status=0
 runs=()
 for name in ${SCENES:-paper_mpr paper_mpr_beta30 paper_mpr_table9 paper_mpr_table9_beta30}; do
@@ -30,8 +30,7 @@ fi
 for entry in "${runs[@]}"; do
     name=${entry%%:*}
     scene=${entry#*:}
-    echo "== micropit run $scene on $np ranks"
-    mpirun -n "$np" "$py" -m micropit_hpc run "$scene" --out "runs/$name" --overwrite
+    PY=$py bash scripts/validate-run.sh "$name" "$scene"
     case "$name" in
         *table9*) which=table9; echo "== $name: A_p against Λ (trend 7)" ;;
         *)        which=mpr; echo "== $name: A_p against |S| (trend 1)" ;;

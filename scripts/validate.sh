@@ -16,6 +16,9 @@
 # are to be re-measured for the implicit default (the last ones, 89 min on 2 cores, measured
 # the previous schemes). The A_p-against-ΔN table comes from
 # benchmarks/results/block_scheme.csv (benchmarks/bench_block_scheme.py) when it is there.
+# RESUME=1 goes on from each run's checkpoints (scripts/validate-run.sh: a finished run is only
+# written again; a run begun by other code is refused), so the validation can be stopped at any
+# time and resumed. REPORT=0 runs without writing the report.
 # Exit status 1 if a trend fails on the default runs (the report is written either way).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -29,16 +32,15 @@ if [ -z "${GEARS_ONLY:-}" ] && [ -z "${PAPER_ONLY:-}" ]; then
 fi
 if [ -z "${PAPER_ONLY:-}" ]; then
     for name in paper_gear_z23 paper_gear_z23_table5 paper_gear_z23_table8 paper_gear_z18; do
-        echo "== micropit run scenes/$name.toml on $np ranks"
-        mpirun -n "$np" "$py" -m micropit_hpc run "scenes/$name.toml" --out "runs/$name" --overwrite
+        PY=$py bash scripts/validate-run.sh "$name" "scenes/$name.toml"
         "$py" postprocess/plot_flank.py "runs/$name"
     done
 fi
 if [ "${PAPER:-1}" != 0 ]; then
     for name in paper_gear_z23 paper_gear_z23_table5 paper_gear_z23_table8 paper_gear_z18; do
         scene=$(bash scripts/paper-scene.sh "$name")
-        echo "== micropit run $scene (the paper's literal numerics) on $np ranks"
-        mpirun -n "$np" "$py" -m micropit_hpc run "$scene" --out "runs/${name}_paper" --overwrite
+        echo "== the paper's literal numerics:"
+        PY=$py bash scripts/validate-run.sh "${name}_paper" "$scene"
         "$py" postprocess/plot_flank.py "runs/${name}_paper"
     done
     if [ -z "${GEARS_ONLY:-}" ]; then
@@ -46,6 +48,7 @@ if [ "${PAPER:-1}" != 0 ]; then
     fi
 fi
 status=0
+[ "${REPORT:-1}" != 0 ] || { echo "validation runs: $(( ($(date +%s) - t0) / 60 )) min on $np ranks; REPORT=0: no report"; exit 0; }
 "$py" postprocess/validation_report.py --runs runs --out docs/validation || status=1
 echo "validation: $(( ($(date +%s) - t0) / 60 )) min on $np ranks; report docs/validation/README.md"
 exit $status

@@ -11,6 +11,7 @@ from __future__ import annotations
 import csv
 import dataclasses
 import importlib.util
+import os
 import shutil
 import subprocess
 
@@ -275,3 +276,95 @@ def test_bench_block_scheme_covers_both_schemes_and_refuses_old_rows(tmp_path, c
     assert e.value.code == 2 and len(done) == 32
     err = capsys.readouterr().err
     assert str(old) in err and "move it away" in err
+
+
+# ---- resuming a validation run: only the code that began it goes on ----------------------------
+def _run_root(tmp_path):
+    """A git checkout of its own with scripts/validate-run.sh, a micropit_hpc/ and a stand-in
+    for the Python (it records the arguments of `micropit run`), so the script's choice of
+    --overwrite or --restart can be read without a real run."""
+    (tmp_path / "scripts").mkdir()
+    for name in ("validate-run.sh", "mpi-env.sh"):
+        shutil.copy(ROOT / "scripts" / name, tmp_path / "scripts")
+    (tmp_path / "micropit_hpc").mkdir()
+    (tmp_path / "micropit_hpc" / "__init__.py").write_text("A = 1\n")
+    py = tmp_path / "py.sh"
+    py.write_text('#!/usr/bin/env bash\necho "$@" > "$(dirname "$0")/args.txt"\n')
+    py.chmod(0o755)
+    _git(tmp_path, "init", "-q")
+    _commit(tmp_path)
+    return tmp_path
+
+
+def _git(root, *args):
+    subprocess.run(["git", "-c", "user.name=t", "-c", "user.email=t@t", *args], cwd=root,
+                   check=True, capture_output=True, timeout=30)
+
+
+def _commit(root):
+    _git(root, "add", "-A", "micropit_hpc", "scripts")
+    _git(root, "commit", "-q", "-m", "code")
+
+
+def _validate_run(root, resume):
+    env = {**os.environ, "PY": str(root / "py.sh"), "NP": "1"}
+    env.pop("RESUME", None)
+    if resume:
+        env["RESUME"] = "1"
+    (root / "args.txt").unlink(missing_ok=True)
+    out = subprocess.run(["bash", str(root / "scripts" / "validate-run.sh"), "one",
+                          "scenes/one.toml"], capture_output=True, text=True, cwd=root,
+                         env=env, timeout=120)
+    args = (root / "args.txt").read_text().split() if (root / "args.txt").exists() else None
+    return out, args
+
+
+def _tree(root):
+    return subprocess.run(["git", "rev-parse", "HEAD:micropit_hpc"], cwd=root, check=True,
+                          capture_output=True, text=True).stdout.strip()
+
+
+def test_a_validation_run_resumes_only_under_the_code_that_began_it(tmp_path):
+    root = _run_root(tmp_path)
+    stamp = root / "runs" / ".validate" / "one.tree"
+    out, args = _validate_run(root, resume=True)        # no run folder yet: afresh
+    assert out.returncode == 0, out.stderr
+    assert args[-1] == "--overwrite" and args[:5] == ["-m", "micropit_hpc", "run",
+                                                      "scenes/one.toml", "--out"]
+    assert stamp.read_text().strip() == _tree(root)
+    (root / "runs" / "one").mkdir()                    # what the run would have made
+    out, args = _validate_run(root, resume=True)
+    assert out.returncode == 0, out.stderr
+    assert args[-1] == "--restart"
+    out, args = _validate_run(root, resume=False)       # without RESUME: afresh, as before
+    assert args[-1] == "--overwrite"
+
+    (root / "micropit_hpc" / "__init__.py").write_text("A = 2\n")   # uncommitted change
+    out, args = _validate_run(root, resume=True)
+    assert out.returncode == 3 and args is None
+    assert "runs/one/" in out.stderr and "uncommitted" in out.stderr
+    assert "afresh" in out.stderr
+    _commit(root)                                       # committed: another tree
+    out, args = _validate_run(root, resume=True)
+    assert out.returncode == 3 and args is None
+    assert "the code changed" in out.stderr and _tree(root) in out.stderr
+
+    out, args = _validate_run(root, resume=False)      # afresh under the new code, then on
+    assert args[-1] == "--overwrite" and stamp.read_text().strip() == _tree(root)
+    out, args = _validate_run(root, resume=True)
+    assert out.returncode == 0 and args[-1] == "--restart"
+
+    stamp.unlink()                                      # begun by something else
+    out, args = _validate_run(root, resume=True)
+    assert out.returncode == 3 and args is None and "no stamp" in out.stderr
+
+
+def test_a_run_begun_with_uncommitted_code_is_never_resumed(tmp_path):
+    root = _run_root(tmp_path)
+    (root / "micropit_hpc" / "__init__.py").write_text("A = 3\n")
+    out, args = _validate_run(root, resume=False)
+    assert out.returncode == 0 and args[-1] == "--overwrite"
+    (root / "runs" / "one").mkdir()
+    _commit(root)
+    out, args = _validate_run(root, resume=True)
+    assert out.returncode == 3 and args is None and "'uncommitted'" in out.stderr
