@@ -10,12 +10,13 @@
 # `life.integration = "paper"`, from scripts/paper-scene.sh) into runs/<scene>_paper/
 # (PAPER_ONLY=1: only the twins). The run times are to be re-measured for the implicit default
 # (the last ones measured the previous schemes).
-# RESUME=1 goes on from each run's checkpoints (scripts/validate-run.sh).
+# PY=/path/to/python skips scripts/setup.sh. RESUME=1 goes on from each run's checkpoints
+# (scripts/validate-run.sh).
 # Exit status 1 if a trend fails on a scene as written (the twins' verdicts are only printed).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
-py=$(bash scripts/setup.sh)
+py=${PY:-$(bash scripts/setup.sh)}
 source scripts/mpi-env.sh
 status=0
 runs=()

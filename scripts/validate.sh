@@ -16,14 +16,14 @@
 # are to be re-measured for the implicit default (the last ones, 89 min on 2 cores, measured
 # the previous schemes). The A_p-against-ΔN table comes from
 # benchmarks/results/block_scheme.csv (benchmarks/bench_block_scheme.py) when it is there.
-# RESUME=1 goes on from each run's checkpoints (scripts/validate-run.sh: a finished run is only
-# written again; a run begun by other code is refused), so the validation can be stopped at any
-# time and resumed. REPORT=0 runs without writing the report.
+# PY=/path/to/python skips scripts/setup.sh. RESUME=1 goes on from each run's checkpoints
+# (scripts/validate-run.sh: a finished run is only written again; a run begun by other code is
+# refused), so the validation can be stopped at any time and resumed. REPORT=0: no report.
 # Exit status 1 if a trend fails on the default runs (the report is written either way).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 cd "$root"
-py=$(bash scripts/setup.sh)
+py=${PY:-$(bash scripts/setup.sh)}
 source scripts/mpi-env.sh
 np=${NP:-2}
 t0=$(date +%s)
