@@ -58,6 +58,10 @@ GEAR_SCENES = ("paper_gear_z23", "paper_gear_z23_table5", "paper_gear_z23_table8
                "paper_gear_z18")
 MPR_SCENES = ("paper_mpr", "paper_mpr_beta30", "paper_mpr_table9", "paper_mpr_table9_beta30")
 K_LUB = (0.0, 1e-11, 5e-11)
+#: β_x [µm] of the gear trends' sensitivity to the slope (scripts/validate.sh SLOPES, beside the
+#: scene's own SCENE_BETA_UM).
+SLOPE_BETAS_UM = (15.0, 30.0, 60.0, 120.0)
+SCENE_BETA_UM = 30.0
 #: The run folders' suffix of each scheme: the scene as written (the converged default, which
 #: decides the trends) and its literal twin (scripts/paper-scene.sh), given beside it.
 SCHEMES = {"": "converged default", "_paper": "the paper's literal numerics"}
@@ -95,7 +99,9 @@ def _run_info(run: Path) -> dict:
             "status": str(a.get("status", "?")), "items": res.items.rows,
             "restarted": int(a.get("restarted_from_block", 0)),
             "created": str(a.get("created_utc", "?"))[:16].replace("T", " "),
-            "commit": str(a.get("source_commit", "")) or "not recorded"}
+            "commit": str(a.get("source_commit", "")) or "not recorded",
+            "item_s": float(sum(np.nansum(res.history[int(i)]["wall_s"])
+                                for i in res.items["id"]))}
 
 
 def _points(rows: list[dict], k_lub: float, body: int) -> list[FlankPoint]:
@@ -177,6 +183,12 @@ def gear_flank(runs: Path, out: Path, md: list[str], suffix: str = "") -> list[V
     if spread_lines:
         md += ["Roughness sampling (mean and range over the patches), a sample:", ""]
         md += [f"* {s}" for s in spread_lines[:8]]
+    return flank_verdicts(rows)
+
+
+def flank_verdicts(rows: list[dict]) -> list[Verdict]:
+    """Trends 2–4 of a z = 23 flank study (rows of :func:`plot_flank.flank_table`), driver and
+    driven, one verdict per trend."""
     verdicts = []
     for body in (1, 2):
         k0, k1, k5 = (_points(rows, k, body) for k in K_LUB)
@@ -317,6 +329,74 @@ def mpr(runs: Path, out: Path, md: list[str], suffix: str = "") -> list[Verdict]
         md.append("*Missing: one of the two MPR runs.*")
         verdicts.append(Verdict(8, False, "MPR runs missing"))
     return verdicts
+
+
+def slope_runs(runs: Path) -> list[tuple[float, Path]]:
+    """(β_x [µm], run folder) of the gear trends' sensitivity to the slope: the scene as written
+    (β_x = 30 µm) and the variants of scripts/slope-scene.sh (``paper_gear_z23_beta<B>``)."""
+    return [(b, runs / ("paper_gear_z23" if b == SCENE_BETA_UM else f"paper_gear_z23_beta{b:g}"))
+            for b in SLOPE_BETAS_UM]
+
+
+def slope_means(summary: list[dict]) -> dict[tuple[float, int], tuple[float, float]]:
+    """{(k_lub, body): (mean Δq [rad], mean A_p [%])} over the positions and patches of a run's
+    last block (summary.csv rows; Δq with the pits filled, ``slope_dq``)."""
+    last = max(float(r["cycles"]) for r in summary)
+    acc: dict[tuple[float, int], list[tuple[float, float]]] = {}
+    for r in summary:
+        if float(r["cycles"]) == last:
+            acc.setdefault((float(r["k_lub_s"]), int(r["body"])), []).append(
+                (float(r["slope_dq"]), float(r["Ap_pct"])))
+    return {k: tuple(float(x) for x in np.mean(v, axis=0)) for k, v in acc.items()}
+
+
+def _pair(means: dict, k_lub: float, i: int) -> str:
+    """"driver / driven" of entry ``i`` (0: Δq, 1: A_p) of :func:`slope_means` at ``k_lub``."""
+    a, b = means.get((k_lub, 1)), means.get((k_lub, 2))
+    return "" if a is None or b is None else f"{a[i]:.3g} / {b[i]:.3g}"
+
+
+def slope_table(entries: list[tuple[float, list[dict] | None, list[dict] | None]]) -> list[str]:
+    """The report's section on the gear trends' sensitivity to the surfaces' slope: for each
+    (β_x, flank rows of :func:`plot_flank.flank_table` or None when the run is missing, its
+    summary.csv rows) the Δq the surfaces have without wear (they keep it: the k_lub = 0 items),
+    the Δq after the life at k_lub = 5e-11 s, the flank-mean A_p at each k_lub and the verdicts
+    of trends 2–4."""
+    table = []
+    for beta, rows, summary in entries:
+        if rows is None or summary is None:
+            table.append([f"{beta:g}", "run missing", "", "", "", "", "", "", ""])
+            continue
+        verdicts = {v.trend: v for v in flank_verdicts(rows)}
+        m = slope_means(summary)
+        table.append([f"{beta:g}" + (" (the scene's)" if beta == SCENE_BETA_UM else ""),
+                      _pair(m, 0.0, 0), _pair(m, 5e-11, 0), *(_pair(m, k, 1) for k in K_LUB),
+                      *(_word(verdicts[t]) for t in (2, 3, 4))])
+    md = ["", "### The gear trends' sensitivity to the slope of the flanks", "",
+          "The paper does not publish its flanks' slope. `scenes/paper_gear_z23.toml` again with "
+          "both surfaces' correlation length along rolling β_x set to 15, 60 and 120 µm beside "
+          "its 30 µm (`scripts/slope-scene.sh`; the same R_q, so the RMS slope Δq scales with "
+          "1/β_x; each β_x its own realisation), converged default. Δq is the mean over "
+          "positions and patches with the pits filled (summary.csv `slope_dq`), driver / "
+          "driven; A_p the flank mean after the last block. β_x above 51 µm does not fit 4 "
+          "times in the 205 µm window: those runs are flagged `window`.", ""]
+    md += _md_table(["β_x µm", "Δq without wear, rad", "Δq at k_lub 5e-11 s, rad",
+                     "A_p k_lub 0, %", "A_p 1e-11 s, %", "A_p 5e-11 s, %",
+                     "trend 2", "trend 3", "trend 4"], table)
+    return md
+
+
+def slope_sensitivity(runs: Path) -> list[str]:
+    """:func:`slope_table` from the runs of :func:`slope_runs`."""
+    entries = []
+    for beta, run in slope_runs(runs):
+        if not (run / "results.h5").is_file() or not (run / "summary.csv").is_file():
+            entries.append((beta, None, None))
+            continue
+        with open(run / "summary.csv", newline="") as fh:
+            summary = list(csv.DictReader(fh))
+        entries.append((beta, plot_flank.flank_table(run), summary))
+    return slope_table(entries)
 
 
 def _flags_line(run: Path) -> list[str]:
@@ -463,19 +543,23 @@ def main(argv: list[str] | None = None) -> int:
     twins, md_paper = _sections(a.runs, a.out, "_paper")
     runs_info = []
     total, restarted = 0.0, False
-    for name in [n + sfx for sfx in SCHEMES for n in MPR_SCENES + GEAR_SCENES]:
+    items_total = 0.0
+    slopes = [run.name for b, run in slope_runs(a.runs) if b != SCENE_BETA_UM]
+    for name in [n + sfx for sfx in SCHEMES for n in MPR_SCENES + GEAR_SCENES] + slopes:
         run = a.runs / name
         if (run / "results.h5").is_file():
             info = _run_info(run)
             total += info["wall_s"]
+            items_total += info["item_s"] / max(info["ranks"], 1)
             status = info["status"]
             if info["restarted"]:
                 restarted = True
                 status += f" (restarted after block {info['restarted']}*)"
             runs_info.append([name, info["items"], info["ranks"], f"{info['wall_s']:.0f}",
+                              f"{info['item_s'] / max(info['ranks'], 1):.0f}",
                               status, info["created"], info["commit"]])
         else:
-            runs_info.append([name, "", "", "", "missing", "", ""])
+            runs_info.append([name, "", "", "", "", "missing", "", ""])
     lines, passed = trend_lines(verdicts, twins)
     md = ["# Validation report", "",
           f"Written by `bash scripts/validate.sh` (`postprocess/validation_report.py`) on "
@@ -492,14 +576,17 @@ def main(argv: list[str] | None = None) -> int:
           "ΔN·Δh and damage over the block, then the pit check) is given beside each trend "
           "(docs/life.md, \"Two time integrations\"). Results outside the model's range are "
           "counted per run (docs/life.md, \"The model's range\").", "",
-          "## Trends", "", *lines]
+          "## Trends", "", *lines, *slope_sensitivity(a.runs)]
     md += ["", "## Runs", ""]
-    md += _md_table(["scene", "items", "ranks", "wall s", "status", "results written (UTC)",
-                     "commit"], runs_info)
+    md += _md_table(["scene", "items", "ranks", "wall s", "items' time / ranks, s", "status",
+                     "results written (UTC)", "commit"], runs_info)
     if restarted:
         md += ["", "\\* A restarted run records the wall time, time and commit of its last leg "
-               "only; the blocks before the restart come from its checkpoint."]
-    md += ["", f"Total wall time of the runs: {total / 60:.1f} min."]
+               "only; the blocks before the restart come from its checkpoint, and so do their "
+               "items' times."]
+    md += ["", f"Total wall time of the runs: {total / 60:.1f} min; their items' time (each "
+           f"item's blocks, from the results, over every leg of a resumed run) divided by the "
+           f"ranks: {items_total / 60:.1f} min (what the runs cost without idle ranks)."]
     block_scheme_table(md)
     for title, part in (("the converged default (the scenes as written)", md_default),
                         ("the paper's literal numerics (the `_paper` twins)", md_paper)):

@@ -16,6 +16,10 @@
 # are to be re-measured for the implicit default (the last ones, 89 min on 2 cores, measured
 # the previous schemes). The A_p-against-ΔN table comes from
 # benchmarks/results/block_scheme.csv (benchmarks/bench_block_scheme.py) when it is there.
+# Last, the gear trends' sensitivity to the unknown slope of the paper's flanks: scenes/
+# paper_gear_z23.toml again with both surfaces' β_x (corr_x_um) set to each of SLOPES (default
+# "15 60 120" µm, beside the scene's 30; SLOPES= skips them) by scripts/slope-scene.sh, into
+# runs/paper_gear_z23_beta<B>/, converged default only; the report gives each β_x's verdicts.
 # PY=/path/to/python skips scripts/setup.sh. RESUME=1 goes on from each run's checkpoints
 # (scripts/validate-run.sh: a finished run is only written again; a run begun by other code is
 # refused), so the validation can be stopped at any time and resumed. REPORT=0: no report.
@@ -28,7 +32,7 @@ source scripts/mpi-env.sh
 np=${NP:-2}
 t0=$(date +%s)
 if [ -z "${GEARS_ONLY:-}" ] && [ -z "${PAPER_ONLY:-}" ]; then
-    PAPER=0 bash scripts/validate-mpr.sh || true
+    PY=$py PAPER=0 bash scripts/validate-mpr.sh || true
 fi
 if [ -z "${PAPER_ONLY:-}" ]; then
     for name in paper_gear_z23 paper_gear_z23_table5 paper_gear_z23_table8 paper_gear_z18; do
@@ -44,8 +48,16 @@ if [ "${PAPER:-1}" != 0 ]; then
         "$py" postprocess/plot_flank.py "runs/${name}_paper"
     done
     if [ -z "${GEARS_ONLY:-}" ]; then
-        PAPER_ONLY=1 bash scripts/validate-mpr.sh || true
+        PY=$py PAPER_ONLY=1 bash scripts/validate-mpr.sh || true
     fi
+fi
+if [ -z "${PAPER_ONLY:-}" ]; then
+    for beta in ${SLOPES-15 60 120}; do
+        scene=$(bash scripts/slope-scene.sh paper_gear_z23 "$beta")
+        echo "== the gear trends' sensitivity to the slope: β_x = $beta µm"
+        PY=$py bash scripts/validate-run.sh "paper_gear_z23_beta$beta" "$scene"
+        "$py" postprocess/plot_flank.py "runs/paper_gear_z23_beta$beta"
+    done
 fi
 status=0
 [ "${REPORT:-1}" != 0 ] || { echo "validation runs: $(( ($(date +%s) - t0) / 60 )) min on $np ranks; REPORT=0: no report"; exit 0; }

@@ -193,7 +193,7 @@ def test_missing_twins_are_said_to_be_missing(tmp_path):
                                "literal numerics: missing)"), line
     assert "Paper's literal numerics (`_paper` twin): run missing" in text
     for name in ("paper_mpr_paper", "paper_gear_z23_paper"):
-        assert _row(text, name).split("|")[5].strip() == "missing"
+        assert _row(text, name).split("|")[6].strip() == "missing"
     assert f"*Missing: {tmp_path / 'runs' / 'paper_mpr_paper'}/summary.csv.*" in text
     assert "trend 1: PASS (the paper's literal numerics: missing) — paper_mpr_beta30:" in text
 
@@ -368,3 +368,97 @@ def test_a_run_begun_with_uncommitted_code_is_never_resumed(tmp_path):
     _commit(root)
     out, args = _validate_run(root, resume=True)
     assert out.returncode == 3 and args is None and "'uncommitted'" in out.stderr
+
+
+# ---- the gear trends' sensitivity to the slope (scripts/slope-scene.sh, the report's table) ------
+def _slope_scene(root, name, beta):
+    return subprocess.run(["bash", str(root / "scripts" / "slope-scene.sh"), name, beta],
+                          capture_output=True, text=True, cwd=root, timeout=30)
+
+
+def test_the_slope_variant_is_the_gear_scene_with_both_surfaces_beta_x_changed(tmp_path):
+    root = _script_root(tmp_path)
+    shutil.copy(ROOT / "scripts" / "slope-scene.sh", root / "scripts")
+    scene = load_scene(SCENES / "paper_gear_z23.toml")
+    for beta, run in report.slope_runs(root / "runs"):
+        if beta == report.SCENE_BETA_UM:
+            assert run.name == "paper_gear_z23"
+            for body in (scene.body1, scene.body2):
+                assert body.surface.corr_x == pytest.approx(beta * 1e-6, rel=1e-15)
+            continue
+        out = _slope_scene(root, "paper_gear_z23", f"{beta:g}")
+        assert out.returncode == 0, out.stderr
+        path = root / out.stdout.strip()
+        assert path.name == f"{run.name}.toml"        # the run folder validate.sh uses
+        variant = load_scene(path)
+        for body in (variant.body1, variant.body2):
+            assert body.surface.corr_x == pytest.approx(beta * 1e-6, rel=1e-15)
+        same = dataclasses.replace(
+            variant, source=scene.source, document=scene.document, warnings=scene.warnings,
+            **{name: dataclasses.replace(getattr(variant, name), surface=dataclasses.replace(
+                getattr(variant, name).surface, corr_x=getattr(scene, name).surface.corr_x))
+               for name in ("body1", "body2")})
+        assert same == scene
+
+
+@pytest.mark.parametrize("beta,why", [("0", "not a positive number"),
+                                      ("-5", "not a positive number"),
+                                      ("abc", "not a positive number")])
+def test_slope_scene_refuses_a_beta_that_is_not_a_length(tmp_path, beta, why):
+    root = _script_root(tmp_path)
+    shutil.copy(ROOT / "scripts" / "slope-scene.sh", root / "scripts")
+    out = _slope_scene(root, "paper_gear_z23", beta)
+    assert out.returncode == 1 and out.stdout == "" and why in out.stderr
+    assert f"'{beta}'" in out.stderr
+
+
+def test_slope_scene_refuses_a_scene_without_one_corr_x_line_per_surface(tmp_path):
+    root = _script_root(tmp_path)
+    shutil.copy(ROOT / "scripts" / "slope-scene.sh", root / "scripts")
+    text = (SCENES / "paper_gear_z23.toml").read_text()
+    (root / "scenes" / "other.toml").write_text(text.replace("corr_x_um = 30.0\n", "", 1))
+    out = _slope_scene(root, "other", "60")
+    assert out.returncode == 1 and "has 1 'corr_x_um = ' lines, not 2" in out.stderr
+    assert not (root / "runs" / "scenes" / "other_beta60.toml").exists()
+
+
+def _flank_rows(scale_k5=1.0):
+    """Flank rows (plot_flank.flank_table's keys the trends read) from the paper's Table 4,
+    which passes trends 2–4; ``scale_k5`` multiplies k_lub = 5e-11 s's A_p."""
+    region = {int(r["position"]): r["pair_region"]
+              for r in read_table("table3_contact_conditions_z23.csv")}
+    rows = []
+    for r in read_table("table4_Ap_along_flank_z23.csv"):
+        for k, col in ((0.0, "0"), (1e-11, "1e-11"), (5e-11, "5e-11")):
+            f = scale_k5 if k == 5e-11 else 1.0
+            rows.append({"position": int(r["position"]), "S": float(r["S"]),
+                         "region": region[int(r["position"])], "k_lub_s": k,
+                         "Ap1_pct": f * float(r[f"Ap_pct_klub{col}_driver"]),
+                         "Ap2_pct": f * float(r[f"Ap_pct_klub{col}_driven"])})
+    return rows
+
+
+def _slope_summary(dq):
+    """summary.csv rows of two blocks: Δq per (k_lub, body) at the last, other values before."""
+    return [{"cycles": str(n), "k_lub_s": str(k), "body": str(body), "position": str(pos),
+             "slope_dq": str(dq[(k, body)] + pos * 1e-3 if n == 3e6 else 9.0),
+             "Ap_pct": str(10.0 * body + pos if n == 3e6 else 99.0)}
+            for n in (1e6, 3e6) for k in (0.0, 1e-11, 5e-11) for body in (1, 2)
+            for pos in (1, 2, 3)]
+
+
+def test_the_slope_table_gives_each_beta_its_slopes_means_and_verdicts():
+    dq = {(k, b): 0.2 * b + (0.0 if k == 0.0 else -0.1) for k in (0.0, 1e-11, 5e-11)
+          for b in (1, 2)}
+    md = report.slope_table([(15.0, _flank_rows(), _slope_summary(dq)),
+                             (30.0, _flank_rows(scale_k5=3.0), _slope_summary(dq)),
+                             (60.0, None, None)])
+    rows = [line for line in md if line.startswith("| ") and not line.startswith("| β_x")]
+    first, scene, missing = (line.split(" | ") for line in rows)
+    # the last block's mean over positions: Δq 0.2·body + 0.002, A_p 10·body + 2
+    assert first[1:6] == ["0.202 / 0.402", "0.102 / 0.302", "12 / 22", "12 / 22", "12 / 22"]
+    assert [c.strip(" |") for c in first[6:]] == ["PASS", "PASS", "PASS"]
+    assert scene[0] == "| 30 (the scene's)"
+    # k_lub = 5e-11 s three times higher: no longer the lowest, trend 4 fails
+    assert [c.strip(" |") for c in scene[6:]] == ["PASS", "PASS", "FAIL"]
+    assert missing[1] == "run missing"
