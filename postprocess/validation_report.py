@@ -175,6 +175,7 @@ def gear_flank(runs: Path, out: Path, md: list[str], suffix: str = "") -> list[V
                     table)
     md += ["", f"![damage-risk maps of the driver](damage_maps{suffix}.png)", ""]
     md += _flags_line(run)
+    md += pair_slope_line(load_results(run))
     spread_lines = []
     for r in rows:
         if r["samples"] > 1 and r["position"] in (2, 4, 5, 8, 10):
@@ -331,6 +332,56 @@ def mpr(runs: Path, out: Path, md: list[str], suffix: str = "") -> list[Verdict]
     return verdicts
 
 
+def pair_slope_ratio(h_end: np.ndarray, pitted: np.ndarray, h_start: np.ndarray) -> float:
+    """How the wear changed the slope of the material that is left: Δq along x (axis 0) of
+    ``h_end`` over the pairs of x-neighbours that are both intact (not ``pitted``) at the end,
+    divided by Δq of ``h_start`` over the same pairs (periodic; NaN without such pairs).
+
+    summary.csv's Δq fills the pits (life._around_pits), so it also counts the step between a
+    filled pit and its worn neighbours; this ratio counts only surface that the life left in
+    place: below 1 the wear polished it, above 1 it roughened it."""
+    both = ~pitted & ~np.roll(pitted, -1, axis=0)
+    if not both.any():
+        return math.nan
+    d_end = (np.roll(h_end, -1, axis=0) - h_end)[both]
+    d_start = (np.roll(h_start, -1, axis=0) - h_start)[both]
+    return float(np.sqrt(np.mean(d_end ** 2) / np.mean(d_start ** 2)))
+
+
+def pair_slope_ratios(res) -> dict[tuple[float, int], float]:
+    """{(k_lub, body): mean over the items of :func:`pair_slope_ratio`} of a run's results,
+    each item against the surface it started from: the final heights plus pit depths of the
+    item with the same position, patch and roughness scale and k_lub = 0 (nothing but the pits
+    changes a surface without wear, and they are given back by their depths)."""
+    it = dict(res.items)
+    key = list(zip(it["position"], it["patch"], it["roughness_scale"], strict=True))
+    start = {k: int(i) for k, i, kl in zip(key, it["id"], it["k_lub"], strict=True) if kl == 0}
+    acc: dict[tuple[float, int], list[float]] = {}
+    for k, i, kl in zip(key, it["id"], it["k_lub"], strict=True):
+        if k not in start:
+            continue
+        for body in (1, 2):
+            m = res.maps(int(i), body, "heights", "pitted")
+            s = res.maps(start[k], body, "heights", "pit_depth")
+            acc.setdefault((float(kl), body), []).append(pair_slope_ratio(
+                m["heights"], m["pitted"].astype(bool), s["heights"] + s["pit_depth"]))
+    return {k: float(np.nanmean(v)) for k, v in acc.items()}
+
+
+def pair_slope_line(res) -> list[str]:
+    """The report's line on whether the wear polished the flanks (:func:`pair_slope_ratios`)."""
+    r = pair_slope_ratios(res)
+    worn = [k for k in K_LUB if k > 0 and (k, 1) in r and (k, 2) in r]
+    if not worn:
+        return []
+    parts = "; ".join(f"k_lub {k:g} s: {r[(k, 1)]:.3g} / {r[(k, 2)]:.3g}" for k in worn)
+    return ["Did the wear polish the flanks? Δq of the surface left in place (pairs of "
+            "x-neighbours both intact after the last block) against the same pairs at the "
+            f"start, mean over positions and patches, driver / driven: {parts} (below 1: "
+            "polished; summary.csv's Δq fills the pits and so also counts the steps at their "
+            "edges).", ""]
+
+
 def slope_runs(runs: Path) -> list[tuple[float, Path]]:
     """(β_x [µm], run folder) of the gear trends' sensitivity to the slope: the scene as written
     (β_x = 30 µm) and the variants of scripts/slope-scene.sh (``paper_gear_z23_beta<B>``)."""
@@ -356,21 +407,25 @@ def _pair(means: dict, k_lub: float, i: int) -> str:
     return "" if a is None or b is None else f"{a[i]:.3g} / {b[i]:.3g}"
 
 
-def slope_table(entries: list[tuple[float, list[dict] | None, list[dict] | None]]) -> list[str]:
+def slope_table(entries: list[tuple[float, list[dict] | None, list[dict] | None,
+                                  dict | None]]) -> list[str]:
     """The report's section on the gear trends' sensitivity to the surfaces' slope: for each
     (β_x, flank rows of :func:`plot_flank.flank_table` or None when the run is missing, its
-    summary.csv rows) the Δq the surfaces have without wear (they keep it: the k_lub = 0 items),
-    the Δq after the life at k_lub = 5e-11 s, the flank-mean A_p at each k_lub and the verdicts
+    summary.csv rows, its :func:`pair_slope_ratios`) the Δq the surfaces have without wear
+    (they keep it: the k_lub = 0 items), the Δq after the life at k_lub = 5e-11 s, and of the
+    surface left in place against its start, the flank-mean A_p at each k_lub and the verdicts
     of trends 2–4."""
     table = []
-    for beta, rows, summary in entries:
-        if rows is None or summary is None:
-            table.append([f"{beta:g}", "run missing", "", "", "", "", "", "", ""])
+    for beta, rows, summary, ratios in entries:
+        if rows is None or summary is None or ratios is None:
+            table.append([f"{beta:g}", "run missing", "", "", "", "", "", "", "", ""])
             continue
         verdicts = {v.trend: v for v in flank_verdicts(rows)}
         m = slope_means(summary)
+        r1, r2 = ratios.get((5e-11, 1), math.nan), ratios.get((5e-11, 2), math.nan)
         table.append([f"{beta:g}" + (" (the scene's)" if beta == SCENE_BETA_UM else ""),
-                      _pair(m, 0.0, 0), _pair(m, 5e-11, 0), *(_pair(m, k, 1) for k in K_LUB),
+                      _pair(m, 0.0, 0), _pair(m, 5e-11, 0), f"{r1:.3g} / {r2:.3g}",
+                      *(_pair(m, k, 1) for k in K_LUB),
                       *(_word(verdicts[t]) for t in (2, 3, 4))])
     md = ["", "### The gear trends' sensitivity to the slope of the flanks", "",
           "The paper does not publish its flanks' slope. `scenes/paper_gear_z23.toml` again with "
@@ -378,10 +433,13 @@ def slope_table(entries: list[tuple[float, list[dict] | None, list[dict] | None]
           "its 30 µm (`scripts/slope-scene.sh`; the same R_q, so the RMS slope Δq scales with "
           "1/β_x; each β_x its own realisation), converged default. Δq is the mean over "
           "positions and patches with the pits filled (summary.csv `slope_dq`), driver / "
-          "driven; A_p the flank mean after the last block. β_x above 51 µm does not fit 4 "
-          "times in the 205 µm window: those runs are flagged `window`.", ""]
+          "driven; \"intact Δq end / start\" is that of the surface left in place against "
+          "its start (below 1: the wear polished it; the gear flank's line \"Did the wear "
+          "polish the flanks?\"); A_p the flank mean after the last block. β_x above 51 µm "
+          "does not fit 4 times in the 205 µm window: those runs are flagged `window`.", ""]
     md += _md_table(["β_x µm", "Δq without wear, rad", "Δq at k_lub 5e-11 s, rad",
-                     "A_p k_lub 0, %", "A_p 1e-11 s, %", "A_p 5e-11 s, %",
+                     "intact Δq end / start, 5e-11 s", "A_p k_lub 0, %", "A_p 1e-11 s, %",
+                     "A_p 5e-11 s, %",
                      "trend 2", "trend 3", "trend 4"], table)
     return md
 
@@ -391,11 +449,12 @@ def slope_sensitivity(runs: Path) -> list[str]:
     entries = []
     for beta, run in slope_runs(runs):
         if not (run / "results.h5").is_file() or not (run / "summary.csv").is_file():
-            entries.append((beta, None, None))
+            entries.append((beta, None, None, None))
             continue
         with open(run / "summary.csv", newline="") as fh:
             summary = list(csv.DictReader(fh))
-        entries.append((beta, plot_flank.flank_table(run), summary))
+        res = load_results(run)
+        entries.append((beta, plot_flank.flank_table(res), summary, pair_slope_ratios(res)))
     return slope_table(entries)
 
 

@@ -15,6 +15,7 @@ import os
 import shutil
 import subprocess
 
+import numpy as np
 import pytest
 from helpers import ROOT, SCENES, read_table
 
@@ -450,15 +451,69 @@ def _slope_summary(dq):
 def test_the_slope_table_gives_each_beta_its_slopes_means_and_verdicts():
     dq = {(k, b): 0.2 * b + (0.0 if k == 0.0 else -0.1) for k in (0.0, 1e-11, 5e-11)
           for b in (1, 2)}
-    md = report.slope_table([(15.0, _flank_rows(), _slope_summary(dq)),
-                             (30.0, _flank_rows(scale_k5=3.0), _slope_summary(dq)),
-                             (60.0, None, None)])
+    ratios = {(5e-11, 1): 0.8, (5e-11, 2): 1.25}
+    md = report.slope_table([(15.0, _flank_rows(), _slope_summary(dq), ratios),
+                             (30.0, _flank_rows(scale_k5=3.0), _slope_summary(dq), ratios),
+                             (60.0, None, None, None)])
     rows = [line for line in md if line.startswith("| ") and not line.startswith("| β_x")]
     first, scene, missing = (line.split(" | ") for line in rows)
     # the last block's mean over positions: Δq 0.2·body + 0.002, A_p 10·body + 2
-    assert first[1:6] == ["0.202 / 0.402", "0.102 / 0.302", "12 / 22", "12 / 22", "12 / 22"]
-    assert [c.strip(" |") for c in first[6:]] == ["PASS", "PASS", "PASS"]
+    assert first[1:7] == ["0.202 / 0.402", "0.102 / 0.302", "0.8 / 1.25", "12 / 22",
+                          "12 / 22", "12 / 22"]
+    assert [c.strip(" |") for c in first[7:]] == ["PASS", "PASS", "PASS"]
     assert scene[0] == "| 30 (the scene's)"
     # k_lub = 5e-11 s three times higher: no longer the lowest, trend 4 fails
-    assert [c.strip(" |") for c in scene[6:]] == ["PASS", "PASS", "FAIL"]
+    assert [c.strip(" |") for c in scene[7:]] == ["PASS", "PASS", "FAIL"]
     assert missing[1] == "run missing"
+
+
+def _wavy(n=32, amp=1e-6):
+    x = np.arange(n)[:, None] * np.ones((1, n))
+    return amp * np.sin(2 * np.pi * x / 8.0)
+
+
+def test_the_slope_of_the_surface_left_in_place_ignores_the_pits():
+    start = _wavy()
+    pitted = np.zeros(start.shape, bool)
+    assert report.pair_slope_ratio(start - 3e-6, pitted, start) == pytest.approx(1.0, rel=1e-12)
+    assert report.pair_slope_ratio(0.5 * start, pitted, start) == pytest.approx(0.5, rel=1e-12)
+    pitted[5, 7] = pitted[20, 3] = True
+    end = 0.5 * start
+    end[pitted] -= 40e-6                       # a pit's floor: no pair that touches it counts
+    assert report.pair_slope_ratio(end, pitted, start) == pytest.approx(0.5, rel=1e-12)
+    rough = end + np.where(pitted | np.roll(pitted, -1, axis=0), 0.0, 1e-7 * (-1.0) ** np.arange(
+        32)[:, None])                          # ripple on the intact surface: steeper than 0.5
+    assert report.pair_slope_ratio(rough, pitted, start) > 0.6
+    assert np.isnan(report.pair_slope_ratio(end, np.ones_like(pitted), start))
+
+
+class _FakeResults:
+    """What pair_slope_ratios reads of a run's results: the items and their final maps."""
+
+    def __init__(self, items, maps):
+        self.items, self._maps = items, maps
+
+    def maps(self, item, body, *names):
+        return {n: self._maps[(item, body)][n] for n in names}
+
+
+def test_each_item_is_held_against_the_start_of_its_own_surface():
+    start = _wavy()
+    pitted = np.zeros(start.shape, bool)
+    pitted[3, 3] = True
+    # items: (position 1, patch 0) at k_lub 0, 1e-11, 5e-11; (position 2, patch 0) at 0, 5e-11
+    ids = np.arange(5)
+    items = {"id": ids, "position": np.array([1, 1, 1, 2, 2]), "patch": np.zeros(5, int),
+             "roughness_scale": np.ones(5), "k_lub": np.array([0, 1e-11, 5e-11, 0, 5e-11])}
+    maps = {}
+    for i, (pos, k) in enumerate(zip(items["position"], items["k_lub"], strict=True)):
+        surf = start if pos == 1 else 2.0 * start       # each position its own start
+        scale = {0.0: 1.0, 1e-11: 0.9, 5e-11: 0.6 if pos == 1 else 0.8}[float(k)]
+        for body in (1, 2):
+            pit_depth = np.where(pitted, 5e-6, 0.0) if k == 0 else np.zeros_like(start)
+            maps[(i, body)] = {"heights": scale * surf - pit_depth, "pit_depth": pit_depth,
+                               "pitted": pitted}
+    r = report.pair_slope_ratios(_FakeResults(items, maps))
+    assert r[(0.0, 1)] == pytest.approx(1.0, rel=1e-12)          # heights + pits = the start
+    assert r[(1e-11, 2)] == pytest.approx(0.9, rel=1e-12)
+    assert r[(5e-11, 1)] == pytest.approx(0.7, rel=1e-12)         # mean of 0.6 and 0.8
