@@ -3,8 +3,8 @@
 # on NP ranks (default 2) with the Python that scripts/setup.sh prints (PY, when set, skips it).
 #
 # Afresh by default (--overwrite). With RESUME=1 the run goes on from its last checkpoint
-# (`micropit run --restart`; a finished run only has its results written again, in seconds), so a
-# validation of many hours can be spread over several sittings: kill it at any time and call the
+# (`micropit run --restart`; a finished run, whose manifest.json says done, is left as it is), so
+# a validation of many hours can be spread over several sittings: kill it at any time and call the
 # same command with RESUME=1. A run is resumed only by the code that began it: the git tree of
 # micropit_hpc/ is stamped in runs/.validate/NAME.tree when a run starts afresh, and RESUME=1
 # refuses a run folder whose stamp differs from this checkout's tree, has no stamp, or was begun
@@ -54,6 +54,12 @@ if [ -n "${RESUME:-}" ] && [ -d "runs/$name" ]; then
         exit 3
     fi
     mode=--restart
+    # a finished run is left as it is: writing its results again would record that leg's wall
+    # time and commit instead of those of the run
+    if grep -q '"status": "done"' "runs/$name/manifest.json" 2>/dev/null; then
+        echo "== runs/$name/ is finished (its manifest.json says done): left as it is"
+        exit 0
+    fi
 fi
 if [ "$mode" = --overwrite ]; then
     mkdir -p "$stamp_dir"

@@ -21,7 +21,7 @@
 # "15 60 120" µm, beside the scene's 30; SLOPES= skips them) by scripts/slope-scene.sh, into
 # runs/paper_gear_z23_beta<B>/, converged default only; the report gives each β_x's verdicts.
 # PY=/path/to/python skips scripts/setup.sh. RESUME=1 goes on from each run's checkpoints
-# (scripts/validate-run.sh: a finished run is only written again; a run begun by other code is
+# (scripts/validate-run.sh: a finished run is left as it is; a run begun by other code is
 # refused), so the validation can be stopped at any time and resumed. REPORT=0: no report.
 # Exit status 1 if a trend fails on the default runs (the report is written either way).
 set -euo pipefail

@@ -354,6 +354,13 @@ def test_a_validation_run_resumes_only_under_the_code_that_began_it(tmp_path):
     assert args[-1] == "--overwrite" and stamp.read_text().strip() == _tree(root)
     out, args = _validate_run(root, resume=True)
     assert out.returncode == 0 and args[-1] == "--restart"
+    manifest = root / "runs" / "one" / "manifest.json"  # finished: left as it is
+    manifest.write_text('{\n "blocks": 3,\n "status": "done"\n}\n')
+    out, args = _validate_run(root, resume=True)
+    assert out.returncode == 0 and args is None and "left as it is" in out.stdout
+    manifest.write_text('{\n "blocks": 3,\n "status": "stopped"\n}\n')
+    out, args = _validate_run(root, resume=True)
+    assert out.returncode == 0 and args[-1] == "--restart"
 
     stamp.unlink()                                      # begun by something else
     out, args = _validate_run(root, resume=True)
