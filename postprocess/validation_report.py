@@ -513,6 +513,14 @@ def block_scheme_table(md: list[str]) -> None:
     md += _md_table(["case", "scheme", "k_lub s", *[f"ΔN {b:g} M" for b in blocks]], table)
 
 
+def _tree(runs: Path, name: str) -> str:
+    """The git tree of micropit_hpc/ that began the run (its stamp from scripts/validate-run.sh,
+    runs/.validate/<name>.tree): runs resumed or written again under another commit of the same
+    tree ran the same code."""
+    stamp = runs / ".validate" / f"{name}.tree"
+    return stamp.read_text().strip()[:7] if stamp.is_file() else "not recorded"
+
+
 def _commit(out: Path) -> str:
     """HEAD, and whether tracked files other than the report's own (``out``) differ from it."""
     spec = (".",)
@@ -616,9 +624,9 @@ def main(argv: list[str] | None = None) -> int:
                 status += f" (restarted after block {info['restarted']}*)"
             runs_info.append([name, info["items"], info["ranks"], f"{info['wall_s']:.0f}",
                               f"{info['item_s'] / max(info['ranks'], 1):.0f}",
-                              status, info["created"], info["commit"]])
+                              status, info["created"], info["commit"], _tree(a.runs, name)])
         else:
-            runs_info.append([name, "", "", "", "", "missing", "", ""])
+            runs_info.append([name, "", "", "", "", "missing", "", "", ""])
     lines, passed = trend_lines(verdicts, twins)
     md = ["# Validation report", "",
           f"Written by `bash scripts/validate.sh` (`postprocess/validation_report.py`) on "
@@ -638,7 +646,7 @@ def main(argv: list[str] | None = None) -> int:
           "## Trends", "", *lines, *slope_sensitivity(a.runs)]
     md += ["", "## Runs", ""]
     md += _md_table(["scene", "items", "ranks", "wall s", "items' time / ranks, s", "status",
-                     "results written (UTC)", "commit"], runs_info)
+                     "results written (UTC)", "commit", "micropit_hpc tree"], runs_info)
     if restarted:
         md += ["", "\\* A restarted run records the wall time, time and commit of its last leg "
                "only; the blocks before the restart come from its checkpoint, and so do their "

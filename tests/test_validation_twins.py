@@ -479,6 +479,13 @@ def _wavy(n=32, amp=1e-6):
     return amp * np.sin(2 * np.pi * x / 8.0)
 
 
+def test_the_runs_table_names_the_code_tree_that_began_each_run(tmp_path):
+    (tmp_path / ".validate").mkdir()
+    (tmp_path / ".validate" / "one.tree").write_text("7f9a7aa8ed6d9f01becbf60c58c586a12403a005\n")
+    assert report._tree(tmp_path, "one") == "7f9a7aa"
+    assert report._tree(tmp_path, "two") == "not recorded"
+
+
 def test_the_slope_of_the_surface_left_in_place_ignores_the_pits():
     start = _wavy()
     pitted = np.zeros(start.shape, bool)
