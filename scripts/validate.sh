@@ -12,9 +12,10 @@
 # evaluation per block, explicit wear ΔN·Δh), into runs/<scene>_paper/ from the copy of the
 # scene that scripts/paper-scene.sh writes with that one key changed, and the report gives it
 # beside each trend. PAPER=0 skips the twins (the report then says they are missing);
-# PAPER_ONLY=1 runs only the twins (the report reuses the last default runs). The run times
-# are to be re-measured for the implicit default (the last ones, 89 min on 2 cores, measured
-# the previous schemes). The A_p-against-ΔN table comes from
+# PAPER_ONLY=1 runs only the twins (the report reuses the last default runs). Run times on 2
+# ranks of a 2-core machine (commit 26c6115): the gear scenes 64 + 4 + 2 + 7 min, all eight
+# twins 16 min; the MPR defaults with wear at 128² take hours (docs/validation/findings.md).
+# The A_p-against-ΔN table comes from
 # benchmarks/results/block_scheme.csv (benchmarks/bench_block_scheme.py) when it is there.
 # Last, the gear trends' sensitivity to the unknown slope of the paper's flanks: scenes/
 # paper_gear_z23.toml again with both surfaces' β_x (corr_x_um) set to each of SLOPES (default
