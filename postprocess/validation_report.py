@@ -7,8 +7,9 @@ Reads RUNS/<scene>/ of the MPR scenes (paper_mpr, paper_mpr_table9 and their _be
 and of the gear scenes (paper_gear_z23, paper_gear_z23_table5, paper_gear_z23_table8,
 paper_gear_z18), each run as written (the converged default: adaptive blocks with the implicit
 wear), which decides every trend, and RUNS/<scene>_paper/, its literal twin (the paper's
-numerics, ``life.integration = "paper"``, scripts/paper-scene.sh), given beside each trend;
-writes OUT/README.md (the report), the figures (flank.png like the paper's Fig. 8,
+numerics, ``life.integration = "paper"``, scripts/paper-scene.sh), given beside each trend,
+and RUNS/paper_gear_z23_beta<B>/ (scripts/slope-scene.sh), the gear trends' sensitivity to the
+flanks' slope; writes OUT/README.md (the report), the figures (flank.png like the paper's Fig. 8,
 damage_maps.png like its Fig. 9, the MPR life plots) and the side-by-side tables
 (table4_ours_vs_paper.csv, table5_…, table8_…, mpr_…, table9_…; the twin's with ``_paper``).
 A missing default run is reported as missing and its trends as FAIL; a missing twin run is
