@@ -280,6 +280,9 @@ def test_bench_block_scheme_covers_both_schemes_and_refuses_old_rows(tmp_path, c
 
 
 # ---- resuming a validation run: only the code that began it goes on ----------------------------
+NEEDS_GIT = pytest.mark.skipif(shutil.which("git") is None, reason="needs git")
+
+
 def _run_root(tmp_path):
     """A git checkout of its own with scripts/validate-run.sh, a micropit_hpc/ and a stand-in
     for the Python (it records the arguments of `micropit run`), so the script's choice of
@@ -325,6 +328,7 @@ def _tree(root):
                           capture_output=True, text=True).stdout.strip()
 
 
+@NEEDS_GIT
 def test_a_validation_run_resumes_only_under_the_code_that_began_it(tmp_path):
     root = _run_root(tmp_path)
     stamp = root / "runs" / ".validate" / "one.tree"
@@ -367,6 +371,7 @@ def test_a_validation_run_resumes_only_under_the_code_that_began_it(tmp_path):
     assert out.returncode == 3 and args is None and "no stamp" in out.stderr
 
 
+@NEEDS_GIT
 def test_a_run_begun_with_uncommitted_code_is_never_resumed(tmp_path):
     root = _run_root(tmp_path)
     (root / "micropit_hpc" / "__init__.py").write_text("A = 3\n")
