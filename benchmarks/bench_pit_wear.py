@@ -77,15 +77,6 @@ def _fill(name: str) -> None:
 
 
 
-def _pairs_ratio(end: np.ndarray, start: np.ndarray, pairs: np.ndarray) -> float:
-    """pair_slope_ratio over the given pairs (first columns) only: near or far from the pits."""
-    if pairs.sum() < 10:
-        return float("nan")
-    d_end = (np.roll(end, -1, axis=0) - end)[pairs]
-    d_start = (np.roll(start, -1, axis=0) - start)[pairs]
-    return float(np.sqrt(np.mean(d_end ** 2) / np.mean(d_start ** 2)))
-
-
 def _one_cycle(run: ItemRun, scene) -> tuple:
     """One load cycle on the run's final surfaces: its result and, per time step, the pressure
     after the pits' load was handed on, its clearance, the pit mask and the share moved."""
@@ -128,9 +119,7 @@ def measure(position: int, k_lub: float, patch: int, blocks: int, fill: str, fat
     for i, bs in enumerate(run.state.bodies):
         pitted = bs.pitted.astype(bool)
         intact = ~pitted
-        pairs = intact & np.roll(intact, -1, axis=0)
         near = ndimage.binary_dilation(pitted, iterations=NEAR_CELLS, structure=np.ones((3, 3)))
-
         rate = result.bodies[i].wear
         total = float(rate.rate[intact].sum())
         free = np.zeros(grid.shape) if steps else np.ones(grid.shape)    # no pits: all free
@@ -146,8 +135,8 @@ def measure(position: int, k_lub: float, patch: int, blocks: int, fill: str, fat
         rows.append((position, k_lub, patch, fill, "on" if fatigue else "off",
                      run.state.cycles / 1e6, i + 1, rec.Ap[i], float(bs.wear.mean()) * 1e6,
                      float(pitted.mean()), pair_slope_ratio(bs.heights, pitted, start[i]),
-                     _pairs_ratio(bs.heights, start[i], near & pairs),
-                     _pairs_ratio(bs.heights, start[i], ~near & pairs), corr_h,
+                     pair_slope_ratio(bs.heights, pitted, start[i], where=near),
+                     pair_slope_ratio(bs.heights, pitted, start[i], where=~near), corr_h,
                      float(rate.solid[intact].sum()) / total if total > 0 else float("nan"),
                      float(np.median([s[4] for s in steps])) if steps else 0.0,
                      float(free[intact].mean()), float(free[intact].std()), corr_free, wall))

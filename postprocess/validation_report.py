@@ -333,15 +333,19 @@ def mpr(runs: Path, out: Path, md: list[str], suffix: str = "") -> list[Verdict]
     return verdicts
 
 
-def pair_slope_ratio(h_end: np.ndarray, pitted: np.ndarray, h_start: np.ndarray) -> float:
+def pair_slope_ratio(h_end: np.ndarray, pitted: np.ndarray, h_start: np.ndarray,
+                     where: np.ndarray | None = None) -> float:
     """How the wear changed the slope of the material that is left: Δq along x (axis 0) of
     ``h_end`` over the pairs of x-neighbours that are both intact (not ``pitted``) at the end,
-    divided by Δq of ``h_start`` over the same pairs (periodic; NaN without such pairs).
+    divided by Δq of ``h_start`` over the same pairs (periodic; NaN without such pairs);
+    ``where``: only the pairs whose first column it marks.
 
     summary.csv's Δq fills the pits (life._around_pits), so it also counts the step between a
     filled pit and its worn neighbours; this ratio counts only surface that the life left in
     place: below 1 the wear polished it, above 1 it roughened it."""
     both = ~pitted & ~np.roll(pitted, -1, axis=0)
+    if where is not None:
+        both &= where
     if not both.any():
         return math.nan
     d_end = (np.roll(h_end, -1, axis=0) - h_end)[both]

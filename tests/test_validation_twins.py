@@ -396,6 +396,7 @@ def test_the_slope_variant_is_the_gear_scene_with_both_surfaces_beta_x_changed(t
     for beta, run in report.slope_runs(root / "runs"):
         if beta == report.SCENE_BETA_UM:
             assert run.name == "paper_gear_z23"
+            # the µm → m conversion rounds once on either side: a few ulp apart at most
             for body in (scene.body1, scene.body2):
                 assert body.surface.corr_x == pytest.approx(beta * 1e-6, rel=1e-15)
             continue
@@ -503,6 +504,11 @@ def test_the_slope_of_the_surface_left_in_place_ignores_the_pits():
     rough = end + np.where(pitted | np.roll(pitted, -1, axis=0), 0.0, 1e-7 * (-1.0) ** np.arange(
         32)[:, None])                          # ripple on the intact surface: steeper than 0.5
     assert report.pair_slope_ratio(rough, pitted, start) > 0.6
+    near = np.zeros(start.shape, bool)
+    near[:16] = True                           # only the pairs starting in the first half
+    assert report.pair_slope_ratio(end, pitted, start, where=near) == pytest.approx(0.5,
+                                                                                    rel=1e-12)
+    assert np.isnan(report.pair_slope_ratio(end, pitted, start, where=pitted))
     assert np.isnan(report.pair_slope_ratio(end, np.ones_like(pitted), start))
 
 
