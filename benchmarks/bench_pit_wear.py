@@ -69,6 +69,7 @@ def _around_pits_flat(bs) -> np.ndarray:
 
 
 def _fill(name: str) -> None:
+    """Patch micropit_hpc.life with the pit fill ``name`` (``mean``: the code's own)."""
     life._around, life._around_pits = _AROUND, _AROUND_PITS
     if name == "max":
         life._around = _around_max
@@ -76,16 +77,15 @@ def _fill(name: str) -> None:
         life._around_pits = _around_pits_flat
 
 
-
 def _one_cycle(run: ItemRun, scene) -> tuple:
-    """One load cycle on the run's final surfaces: its result and, per time step, the pressure
-    after the pits' load was handed on, its clearance, the pit mask and the share moved."""
+    """One load cycle on the run's final surfaces: its result and, per time step whose pits were
+    unloaded, its time, the pit mask and the share of the load moved off the pits."""
     steps: list = []
     unload = cycle_module.PositionCycle._unload_pits
 
     def spy(self, pressure, clearance, p_mean, t):
         out = unload(self, pressure, clearance, p_mean, t)
-        steps.append((t, out[0], out[1], self.pit_mask(t), out[2]))
+        steps.append((t, self.pit_mask(t), out[2]))
         return out
 
     cycle_module.PositionCycle._unload_pits = spy
@@ -123,7 +123,7 @@ def measure(position: int, k_lub: float, patch: int, blocks: int, fill: str, fat
         rate = result.bodies[i].wear
         total = float(rate.rate[intact].sum())
         free = np.zeros(grid.shape) if steps else np.ones(grid.shape)    # no pits: all free
-        for (t, _p, _c, mask, _moved), wj in zip(steps, w, strict=bool(steps)):
+        for (t, mask, _moved), wj in zip(steps, w, strict=bool(steps)):
             free += wj * to_material_frame((~mask).astype(float), run.cycle.slip(i + 1, t),
                                            grid.dx)
         film = rate.fluid[intact]
@@ -138,7 +138,7 @@ def measure(position: int, k_lub: float, patch: int, blocks: int, fill: str, fat
                      pair_slope_ratio(bs.heights, pitted, start[i], where=near),
                      pair_slope_ratio(bs.heights, pitted, start[i], where=~near), corr_h,
                      float(rate.solid[intact].sum()) / total if total > 0 else float("nan"),
-                     float(np.median([s[4] for s in steps])) if steps else 0.0,
+                     float(np.median([s[2] for s in steps])) if steps else 0.0,
                      float(free[intact].mean()), float(free[intact].std()), corr_free, wall))
     return rows
 
