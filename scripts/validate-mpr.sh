@@ -8,7 +8,7 @@
 # Each scene runs as written (the converged default: adaptive blocks, implicit wear) into
 # runs/<scene>/ and, unless PAPER=0, its literal twin (the paper's numerics,
 # `life.integration = "paper"`, from scripts/paper-scene.sh) into runs/<scene>_paper/
-# (PAPER_ONLY=1: only the twins). The twins take 2–4 min each on 2 ranks; the scenes as
+# (PAPER_ONLY=1: only the twins). The twins take 1.6–3.4 min each on 2 ranks; the scenes as
 # written with wear at 128² take hours (docs/validation/findings.md).
 # PY=/path/to/python skips scripts/setup.sh. RESUME=1 goes on from each run's checkpoints
 # (scripts/validate-run.sh).

@@ -13,7 +13,7 @@
 # scene that scripts/paper-scene.sh writes with that one key changed, and the report gives it
 # beside each trend. PAPER=0 skips the twins (the report then says they are missing);
 # PAPER_ONLY=1 runs only the twins (the report reuses the last default runs). Run times on 2
-# ranks of a 2-core machine (commit 26c6115): the gear scenes 64 + 4 + 2 + 7 min, all eight
+# ranks of a 2-core machine (commit 26c6115): the gear scenes 64 + 4 + 2 + 7 min wall clock, all eight
 # twins 16 min; the MPR defaults with wear at 128² take hours (docs/validation/findings.md).
 # The A_p-against-ΔN table comes from
 # benchmarks/results/block_scheme.csv (benchmarks/bench_block_scheme.py) when it is there.

@@ -171,9 +171,10 @@ def test_the_report_decides_on_the_default_and_gives_the_twin_beside_it(tmp_path
     assert lines[at + 1].startswith("  Converged default: paper_mpr: ")
     assert lines[at + 2].startswith("  Paper's literal numerics (`_paper` twin): "
                                     "paper_mpr_paper: ")
-    # the gear runs of both schemes are missing: the default FAILs, the twin is missing
+    # the gear runs of both schemes are missing: both are said to be missing (not to fail), and
+    # the validation does not pass (rc 1 above)
     assert _trend_line(text, 2).startswith(
-        "* **trend 2: FAIL** (converged default; the paper's literal numerics: missing)")
+        "* **trend 2: missing** (converged default; the paper's literal numerics: missing)")
     assert "# Results in the converged default" in text
     assert "# Results in the paper's literal numerics (the `_paper` twins)" in text
     assert (tmp_path / "out" / "paper_mpr_mpr_comparison.csv").is_file()
@@ -213,6 +214,11 @@ def test_the_verdict_is_the_defaults():
     lines, passed = report.trend_lines(good, [])
     assert passed and all("numerics: missing)" in line for line in lines
                           if line.startswith("* **"))
+    # a default run not made is said to be missing, not to fail, and the validation does not pass
+    lines, passed = report.trend_lines(
+        [*good[:6], Verdict(7, False, "paper_mpr_table9: run missing"), good[7]], good)
+    assert not passed and "* **trend 7: missing** (converged default; the paper's literal " \
+                          "numerics: PASS)" in "\n".join(lines)
 
 
 # ---- A_p against ΔN, both schemes ---------------------------------------------------------------
