@@ -18,7 +18,8 @@ and ``flat`` (the intact neighbours' mean height: no tip left). ``--no-fatigue``
 pits (S–N intercept 1e5 MPa). ``--running-in`` flattens the tips first (``life.running_in =
 "plastic"``, docs/life.md, "Plastic running-in of the tips"); the slopes and the correlation
 with the start heights are then measured from the run-in surfaces, the state the wear starts
-from. One rank, one process; one row per run to ``--csv``.
+from. ``--pit-contact open`` (or ``geometric``) sets ``life.pit_contact`` (default: the
+scene's). One rank, one process; one row per run to ``--csv``.
 
     python benchmarks/bench_pit_wear.py --position 4 --k-lub 5e-11 --blocks 2 --fill mean max flat
     python benchmarks/bench_pit_wear.py --position 4 --k-lub 5e-11 --blocks 2 --no-fatigue
@@ -49,7 +50,8 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "postprocess"))
 from validation_report import pair_slope_ratio  # noqa: E402
 
-COLUMNS = ("position", "k_lub_s", "patch", "fill", "fatigue", "running_in", "cycles_M", "body",
+COLUMNS = ("position", "k_lub_s", "patch", "fill", "fatigue", "running_in", "pit_contact",
+           "cycles_M", "body",
            "Ap_pct", "wear_um", "pitted", "pair_dq_ratio", "pair_dq_ratio_near",
            "pair_dq_ratio_far", "corr_wear_start_height", "solid_rate_share", "pit_load_median",
            "free_share_mean", "free_share_sd", "corr_film_rate_free_share", "wall_s")
@@ -103,7 +105,8 @@ def _one_cycle(run: ItemRun, scene) -> tuple:
 
 
 def measure(position: int, k_lub: float, patch: int, blocks: int, fill: str, fatigue: bool,
-            scene_path: Path, running_in: bool = False) -> list[tuple]:
+            scene_path: Path, running_in: bool = False,
+            pit_contact: str | None = None) -> list[tuple]:
     _fill(fill)
     try:
         scene = load_scene(scene_path)
@@ -113,6 +116,9 @@ def measure(position: int, k_lub: float, patch: int, blocks: int, fill: str, fat
         if running_in:
             scene = dataclasses.replace(scene, life=dataclasses.replace(scene.life,
                                                                         running_in="plastic"))
+        if pit_contact is not None:
+            scene = dataclasses.replace(scene, life=dataclasses.replace(scene.life,
+                                                                        pit_contact=pit_contact))
         run = ItemRun(scene, WorkItem(0, position, k_lub, 1.0, patch))
         t0 = time.perf_counter()
         if running_in:          # here, so that the slopes are measured from the run-in surfaces
@@ -143,7 +149,7 @@ def measure(position: int, k_lub: float, patch: int, blocks: int, fill: str, fat
         corr_h = (float(np.corrcoef(wear, start[i][intact])[0, 1]) if wear.std() > 0
                   else float("nan"))
         rows.append((position, k_lub, patch, fill, "on" if fatigue else "off",
-                     "plastic" if running_in else "none",
+                     "plastic" if running_in else "none", scene.life.pit_contact,
                      run.state.cycles / 1e6, i + 1, rec.Ap[i], float(bs.wear.mean()) * 1e6,
                      float(pitted.mean()), pair_slope_ratio(bs.heights, pitted, start[i]),
                      pair_slope_ratio(bs.heights, pitted, start[i], where=near),
@@ -165,13 +171,15 @@ def main(argv=None) -> int:
     ap.add_argument("--no-fatigue", action="store_true")
     ap.add_argument("--running-in", action="store_true",
                     help="flatten the tips first (life.running_in = \"plastic\")")
+    ap.add_argument("--pit-contact", choices=("unloaded", "open", "geometric"),
+                    help="life.pit_contact (default: the scene's)")
     ap.add_argument("--csv")
     a = ap.parse_args(argv)
     print(",".join(COLUMNS), flush=True)
     rows = []
     for fill in a.fill:
         for row in measure(a.position, a.k_lub, a.patch, a.blocks, fill, not a.no_fatigue,
-                           a.scene, a.running_in):
+                           a.scene, a.running_in, a.pit_contact):
             emit(row)
             rows.append(row)
     write_csv(a.csv, COLUMNS, rows)
