@@ -51,10 +51,10 @@ sys.path.insert(0, str(ROOT / "postprocess"))
 from validation_report import pair_slope_ratio  # noqa: E402
 
 COLUMNS = ("position", "k_lub_s", "patch", "fill", "fatigue", "running_in", "pit_contact",
-           "cycles_M", "body",
-           "Ap_pct", "wear_um", "pitted", "pair_dq_ratio", "pair_dq_ratio_near",
-           "pair_dq_ratio_far", "corr_wear_start_height", "solid_rate_share", "pit_load_median",
-           "free_share_mean", "free_share_sd", "corr_film_rate_free_share", "wall_s")
+           "cycles_M", "body", "Ap_pct", "wear_um", "pitted", "pair_dq_ratio",
+           "pair_dq_ratio_near", "pair_dq_ratio_far", "corr_wear_start_height",
+           "solid_rate_share", "pit_load_median", "free_share_mean", "free_share_sd",
+           "corr_film_rate_free_share", "wall_s")
 NEAR_CELLS = 2
 _AROUND, _AROUND_PITS = life._around, life._around_pits
 
