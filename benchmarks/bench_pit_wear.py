@@ -113,12 +113,10 @@ def measure(position: int, k_lub: float, patch: int, blocks: int, fill: str, fat
         if not fatigue:
             scene = dataclasses.replace(scene, fatigue=dataclasses.replace(scene.fatigue,
                                                                            B=1e11))
-        if running_in:
-            scene = dataclasses.replace(scene, life=dataclasses.replace(scene.life,
-                                                                        running_in="plastic"))
+        life_keys = {"running_in": "plastic"} if running_in else {}
         if pit_contact is not None:
-            scene = dataclasses.replace(scene, life=dataclasses.replace(scene.life,
-                                                                        pit_contact=pit_contact))
+            life_keys["pit_contact"] = pit_contact
+        scene = dataclasses.replace(scene, life=dataclasses.replace(scene.life, **life_keys))
         run = ItemRun(scene, WorkItem(0, position, k_lub, 1.0, patch))
         t0 = time.perf_counter()
         if running_in:          # here, so that the slopes are measured from the run-in surfaces
