@@ -136,6 +136,20 @@ def test_real_stress_histories(slide_roll):
 
 
 @needs_numba
+def test_a_strided_slice_is_read_in_place_with_the_numbers_of_its_copy():
+    """The streamed Dang Van (cycle._streamed_dang_van) hands the kernel slices of a layer
+    chunk's history, strided in the points, without copying them: the kernel reads them in
+    place and gives the contiguous copy's numbers bit for bit (the same arithmetic)."""
+    h = np.random.default_rng(29).normal(size=(24, 6, 300)) * 1e8
+    part = h[:, :, 37:261]
+    assert not part.flags.c_contiguous
+    a = dang_van(part, kernel="numba", keep_series=True)
+    b = dang_van(np.ascontiguousarray(part), kernel="numba", keep_series=True)
+    for x, y in ((a.tau_dv, b.tau_dv), (a.radius, b.radius), (a.series, b.series)):
+        assert np.array_equal(x.view(np.uint64), y.view(np.uint64))
+
+
+@needs_numba
 def test_auto_takes_the_compiled_kernel(monkeypatch):
     h = np.random.default_rng(13).normal(size=(20, 6, 50)) * 1e8
     ref = dang_van(h, kernel="numba")

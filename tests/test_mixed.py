@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 from helpers import E_PRIME, SOLVER, mixed_model, mixed_settings, random_pair
 
+from micropit_hpc.compiled import compiled_module
 from micropit_hpc.hertz import elliptical_contact
 from micropit_hpc.lubrication import rheology
 from micropit_hpc.lubrication.dry import ElasticHalfSpaces, solve_dry_contact
@@ -106,7 +107,13 @@ def test_complementary_wave_decays_from_the_inlet():
     assert np.all(decay[1] >= decay[0])
 
 
-def test_dispersion_relation_residual_and_branch():
+needs_numba = pytest.mark.skipif(compiled_module("lubrication._mixed_numba") is None,
+                                 reason="Numba not installed")
+KERNELS = ["numpy", pytest.param("numba", marks=needs_numba)]
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_dispersion_relation_residual_and_branch(kernel):
     """Newton with continuation solves the relation to round-off for gear-like numbers where
     the viscous term dominates, on the decaying branch (Im ψ ≥ 0)."""
     g = Grid(64, 32, 3.7e-4, 3.7e-4)
@@ -114,13 +121,35 @@ def test_dispersion_relation_residual_and_branch():
     ub, ui, h, Ep, B = 2.0, 2.4, 0.7e-6, E_PRIME * 1.0, 17e9
     for eta_x, eta_y in ((7.5, 130.0), (1e8, 1e8), (1e-3, 1e-3)):
         psi, res = solve_dispersion(kx * ui / ub, Ep * h**3 / (48 * ub), h * Ep / (4 * B), ky,
-                                    eta_x, eta_y)
+                                    eta_x, eta_y, kernel=kernel)
         assert res < 1e-10
         assert psi.imag.min() >= -1e-9 * np.abs(psi).max()
 
 
+@needs_numba
+def test_compiled_dispersion_equals_the_reference_to_round_off():
+    """The compiled relation (a mode leaves a stage once its Newton step is below 1e-10 of
+    |ψ|) gives the reference's ψ (every mode through all 8 × 8 steps) to round-off: the
+    difference of two converged Newton solves is a few ulps of the residual's scale
+    max(|ψ|, |a|) per mode; 64 ulps allow for the conditioning of the relation. Gear-like
+    numbers at 256² (viscous, sliding either way), and the inviscid and the very viscous
+    ends."""
+    g = Grid(256, 256, 2.05e-4, 2.05e-4)
+    kx, ky = g.kx + 0 * g.ky, g.ky + 0 * g.kx
+    ub, h, Ep, B = 7.6, 0.37e-6, E_PRIME * 1.0, 17e9
+    for ui, eta_x, eta_y in ((9.8, 7.5, 130.0), (5.4, 30.0, 300.0), (9.8, 1e8, 1e8),
+                             (5.4, 1e-3, 1e-3)):
+        args = (kx * ui / ub, Ep * h**3 / (48 * ub), h * Ep / (4 * B), ky, eta_x, eta_y)
+        ref, res_ref = solve_dispersion(*args, kernel="numpy")
+        new, res_new = solve_dispersion(*args, kernel="numba")
+        scale = np.maximum(np.abs(ref), np.abs(args[0]))
+        assert np.all(np.abs(new - ref) <= 64 * np.finfo(float).eps * scale)
+        assert res_new < 1e-10 and res_ref < 1e-10
+
+
+@pytest.mark.parametrize("kernel", KERNELS)
 @pytest.mark.parametrize("shape", [(64, 32), (65, 33), (2, 8)])
-def test_dispersion_on_the_positive_rows_mirrored_equals_the_whole_spectrum(shape):
+def test_dispersion_on_the_positive_rows_mirrored_equals_the_whole_spectrum(shape, kernel):
     """ψ(−a, k_y) = −conj ψ(a, k_y): the half spectrum solved on its rows k_x ≥ 0 and
     mirrored is the whole spectrum's solution bit for bit (even and odd nx; 2 rows: no pair,
     the whole spectrum), for sliding either way and viscous to inviscid numbers."""
@@ -130,8 +159,8 @@ def test_dispersion_on_the_positive_rows_mirrored_equals_the_whole_spectrum(shap
     for ui, eta_x, eta_y in ((2.4, 7.5, 130.0), (1.6, 30.0, 300.0), (2.4, 1e8, 1e8),
                              (1.6, 1e-3, 1e-3)):
         args = (kx * ui / ub, Ep * h**3 / (48 * ub), h * Ep / (4 * B), ky, eta_x, eta_y)
-        whole, res = solve_dispersion(*args)
-        rows, res_rows = solve_dispersion_rows(*args)
+        whole, res = solve_dispersion(*args, kernel=kernel)
+        rows, res_rows = solve_dispersion_rows(*args, kernel=kernel)
         assert np.array_equal(rows.view(np.uint64), whole.view(np.uint64))
         assert res_rows == res
 

@@ -42,6 +42,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from micropit_hpc.compiled import resolve
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.lubrication import rheology
 from micropit_hpc.lubrication.dry import (
@@ -59,6 +60,17 @@ if TYPE_CHECKING:
 
 CALIBRATED_PREFACTOR = rheology.calibrated_prefactor()
 
+#: The implementation :func:`solve_dispersion` uses when none is given
+#: (:data:`~micropit_hpc.compiled.KERNELS`).
+DISPERSION_KERNEL = "auto"
+#: The compiled dispersion relation ends a mode's Newton loop in a stage once its step is at
+#: most this fraction of |ψ|: with quadratic convergence the error left is of the order of its
+#: square, below round-off.
+DISPERSION_STEP_TOL = 1e-10
+#: ... and in the stages before the last once its step is at most this fraction: an earlier
+#: stage's root is only where the next stage's Newton steps start.
+DISPERSION_STAGE_TOL = 1e-4
+
 
 @dataclass(frozen=True)
 class MixedSolution:
@@ -71,7 +83,8 @@ class MixedSolution:
     film_mean: float
 
 
-def solve_dispersion(a, c, e, ky, eta_x, eta_y, steps: int = 8, newton: int = 8):
+def solve_dispersion(a, c, e, ky, eta_x, eta_y, steps: int = 8, newton: int = 8,
+                     kernel: str | None = None):
     """Wavenumber ψ of the complementary wave, per mode (docs/model.md §4.1 step 2):
 
         ψ = k_x u_i/ū + i E' h̄³ Ω (ψ²/η_x + k_y²/η_y) / (48 ū (1 + E' h̄ Ω/(4B))),
@@ -82,11 +95,29 @@ def solve_dispersion(a, c, e, ky, eta_x, eta_y, steps: int = 8, newton: int = 8)
     inviscid root ψ = a (``steps`` stages), which follows the physical branch (Im ψ ≥ 0: the
     wave decays away from the inlet) even where the viscous term dominates. Returns (ψ, the
     largest relative residual).
+
+    ``kernel`` (None: :data:`DISPERSION_KERNEL`): "numpy", the reference, runs every mode
+    through all ``newton`` steps of every stage; "numba" (:mod:`._mixed_numba`) takes a mode
+    out of the last stage once its Newton step is below :data:`DISPERSION_STEP_TOL` of |ψ|,
+    out of an earlier one below :data:`DISPERSION_STAGE_TOL` (the same root to round-off, in
+    a fraction of the time: docs/performance.md §11); "auto" is the compiled one where Numba
+    can be imported.
     """
     a = np.asarray(a, dtype=complex)
     ky2 = np.asarray(ky, dtype=float) ** 2
+    stages = np.geomspace(1.0 / 2 ** (steps - 1), 1.0, steps)
+    mod = resolve(DISPERSION_KERNEL if kernel is None else kernel, "lubrication._mixed_numba",
+                  "solve_dispersion")
+    if mod is not None:
+        a_c = np.ascontiguousarray(a).reshape(-1)
+        ky2_c = np.ascontiguousarray(np.broadcast_to(ky2, a.shape), dtype=float).reshape(-1)
+        psi = np.empty_like(a_c)
+        worst, _ = mod.dispersion(a_c, ky2_c, float(c), float(e), float(eta_x), float(eta_y),
+                                  stages, int(newton), DISPERSION_STEP_TOL,
+                                  DISPERSION_STAGE_TOL, psi)
+        return psi.reshape(a.shape), float(worst)
     psi = a.copy()
-    for s in np.geomspace(1.0 / 2 ** (steps - 1), 1.0, steps):
+    for s in stages:
         cs = c * s
         for _ in range(newton):
             omega = np.sqrt(psi * psi + ky2)
@@ -104,7 +135,7 @@ def solve_dispersion(a, c, e, ky, eta_x, eta_y, steps: int = 8, newton: int = 8)
     return psi, float(np.max(np.abs(F) / scale))
 
 
-def solve_dispersion_rows(a, c, e, ky, eta_x, eta_y):
+def solve_dispersion_rows(a, c, e, ky, eta_x, eta_y, kernel: str | None = None):
     """:func:`solve_dispersion` on a half spectrum (rows k_x in FFT order, the same k_y in
     every row) solved on the rows k_x ≥ 0 only: the relation is odd in the real direction,
     ψ(−a, k_y) = −conj ψ(a, k_y) (Ω, the flux and 1 + eΩ are conjugated, the i in front
@@ -120,8 +151,8 @@ def solve_dispersion_rows(a, c, e, ky, eta_x, eta_y):
     ky = np.broadcast_to(ky, a.shape)
     if (a.ndim != 2 or nx < 3 or not np.array_equal(a[m:], -a[partners])
             or not np.array_equal(ky[m:], ky[partners])):
-        return solve_dispersion(a, c, e, ky, eta_x, eta_y)
-    half, res = solve_dispersion(a[:m], c, e, ky[:m], eta_x, eta_y)
+        return solve_dispersion(a, c, e, ky, eta_x, eta_y, kernel=kernel)
+    half, res = solve_dispersion(a[:m], c, e, ky[:m], eta_x, eta_y, kernel=kernel)
     psi = np.empty(a.shape, dtype=complex)
     psi[:m] = half
     psi[m:] = -np.conj(half[partners])
