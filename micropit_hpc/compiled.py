@@ -2,9 +2,10 @@
 
 Each compiled kernel module (``lubrication/_dry_numba.py``, ``lubrication/_mixed_numba.py``,
 ``mechanics/_halfspace_numba.py``) needs Numba (Debian's ``python3-numba``, optional:
-docs/install.md). Its NumPy counterpart in the module that uses it is the reference the tests hold it against. A kernel's implementation
-is chosen by name, ``"auto"`` (compiled where Numba can be imported, else NumPy), ``"numba"``
-or ``"numpy"``; the Dang Van kernel keeps its own switch (:mod:`micropit_hpc.fatigue.dangvan`).
+docs/install.md). Its NumPy counterpart in the module that uses it is the reference the tests
+hold it against. A kernel's implementation is chosen by name, ``"auto"`` (compiled where Numba
+can be imported, else NumPy), ``"numba"`` or ``"numpy"``; the Dang Van kernel keeps its own
+switch (:mod:`micropit_hpc.fatigue.dangvan`).
 """
 
 from __future__ import annotations
