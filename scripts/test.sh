@@ -23,7 +23,7 @@ if "$py" -c "import numba" 2>/dev/null; then
     cache=$(mktemp -d)
     rc=0
     NUMBA_CPU_NAME=generic NUMBA_CACHE_DIR=$cache "$py" -m pytest -p no:cacheprovider \
-        tests/test_kernels.py tests/test_dangvan_numba.py "$@" || rc=$?
+        tests/test_kernels.py tests/test_dangvan_numba.py tests/test_mixed.py "$@" || rc=$?
     rm -rf "$cache"
     ((rc == 0 || rc == 5)) || exit "$rc"      # 5: the extra arguments selected none of them
 fi
