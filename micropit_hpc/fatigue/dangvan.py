@@ -461,7 +461,7 @@ def _dang_van_compiled(compiled, flat, pts, alpha, tol, keep_series, max_iter=20
     tau, rad = np.empty(n), np.empty(n)
     iters = np.empty(n, dtype=np.int64)
     series = np.empty((m, n) if keep_series else (1, 1))
-    if n:       # a strided slice of a history as it is: a copy of it cost 14 % of the kernel
+    if n:   # a strided slice read in place: +9 % in the kernel, where its copy cost +14 %
         compiled(flat, float(alpha), float(tol), int(max_iter),
                  bool(keep_series), tau, rad, series, iters)
     stuck = np.flatnonzero(iters < 0)
