@@ -341,6 +341,7 @@ class PositionCycle:
         self.alpha_dv = ALPHA_DV if fat.alpha is None else fat.alpha
         self.k_lub = float(k_lub)
         self._micro: dict[int, HalfSpaceStress] = {}
+        self._whole: dict[int, HalfSpaceStress] = {}   # stress_by_steps
         self._macro_ellipse: dict[int, EllipticalContactField] = {}
 
     def set_surfaces(self, surfaces: tuple[Topography, Topography],
@@ -564,13 +565,25 @@ class PositionCycle:
         sigma += self.macro_stress(fields, body)
         return sigma
 
-    def _micro_field(self, body: int) -> HalfSpaceStress:
-        """The micro field of ``body`` on this rank's slab (built once per body)."""
-        micro = self._micro.get(body)
+    def _micro_field(self, body: int, whole: bool = False) -> HalfSpaceStress:
+        """The micro field of ``body`` on this rank's slab, or with ``whole`` on the whole
+        window on this rank alone (:attr:`stress_by_steps`); each built once per body."""
+        cache = self._whole if whole else self._micro
+        micro = cache.get(body)
         if micro is None:
             nu = (self.scene.body1 if body == 1 else self.scene.body2).nu
-            micro = self._micro[body] = HalfSpaceStress(self.grid, self.z, nu, self.slab)
+            slab = Slab(SerialComm(), self.grid, self.z.size) if whole else self.slab
+            micro = cache[body] = HalfSpaceStress(self.grid, self.z, nu, slab)
         return micro
+
+    @property
+    def stress_by_steps(self) -> bool:
+        """Whether :meth:`stress_history` shares the steps over the group's ranks: under
+        ``contact_parallel = "steps"`` with several ranks, rank r makes the stress layers of
+        the steps j ≡ r (mod ranks) on the whole window (one-rank transforms) and sends each
+        rank its rows, instead of the group transforming every step over the slabs. The same
+        numbers as one rank's, bit for bit (docs/hpc.md §2)."""
+        return self.contact_parallel == "steps" and self.slab.comm.size > 1
 
     def traction_spectra(self, fields: StepFields, body: int) -> tuple[np.ndarray, np.ndarray]:
         """Half spectra (P̂, T̂x) of σ_zz(0) = −p and σ_xz(0) = −q_x in the material frame of
@@ -579,6 +592,24 @@ class PositionCycle:
         p, q = self.material_tractions(fields, body)
         rows = self.slab.rows
         return self.slab.forward(-p[rows]), self.slab.forward(-q[rows])
+
+    def history_spectra(self, fields: list[StepFields], body: int) -> list:
+        """The spectra that :meth:`stress_history` reads, one entry per step of ``fields``:
+        every step's :meth:`traction_spectra` (collective), or under :attr:`stress_by_steps`
+        the whole window's half spectra of this rank's steps (j ≡ rank mod ranks; this rank's
+        transforms alone) and None for the others'."""
+        if not self.stress_by_steps:
+            return [self.traction_spectra(f, body) for f in fields]
+        whole = self._micro_field(body, whole=True).slab
+        comm = self.slab.comm
+        out = []
+        for j, f in enumerate(fields):
+            if j % comm.size != comm.rank:
+                out.append(None)
+                continue
+            p, q = self.material_tractions(f, body)
+            out.append((whole.forward(-p), whole.forward(-q)))
+        return out
 
     def chunk_layers(self, steps: int | None = None) -> int:
         """Depth layers per chunk of the streamed stress history (:meth:`evaluate`): as many as
@@ -595,20 +626,58 @@ class PositionCycle:
                        out: np.ndarray | None = None) -> np.ndarray:
         """The stress history of ``body`` on the depth layers ``layers`` (a slice of :attr:`z`),
         shape (m, 6, n_layers, rows of the slab, ny): at each step j the micro field of the
-        kept spectra ``spectra[j]`` (:meth:`traction_spectra`) on those layers plus the macro
-        field ``macro[j]`` (:meth:`macro_stress`, all layers) on them; the same numbers as
-        :meth:`stresses` on those layers. ``out``: an optional float64 array of that shape.
-        Collective (the inverse FFTs)."""
-        micro = self._micro_field(body)
+        kept spectra ``spectra[j]`` (:meth:`history_spectra`) on those layers plus the macro
+        field ``macro[j]`` (:meth:`macro_stress`, all layers) on them. Over the slabs, the
+        same numbers as :meth:`stresses` on those layers; under :attr:`stress_by_steps`, those
+        of one rank's :meth:`stresses`, on this rank's rows. ``out``: an optional float64
+        array of that shape. Collective (the inverse FFTs, or the steps' rows sent over)."""
         k = range(self.z.size)[layers]
         shape = (len(spectra), 6, len(k), self.slab.nx_local, self.grid.ny)
         hist = np.empty(shape) if out is None else out
         if hist.shape != shape:
             raise ValueError(f"out has shape {hist.shape}, expected {shape}")
-        for j, ((P_hat, T_hat), mac) in enumerate(zip(spectra, macro, strict=True)):
-            micro.stresses(P_hat, T_hat, out=hist[j], layers=layers)
+        if len(macro) != len(spectra):
+            raise ValueError(f"{len(spectra)} steps of spectra but {len(macro)} of macro field")
+        if self.stress_by_steps:
+            self._history_by_steps(spectra, body, layers, hist)
+        else:
+            micro = self._micro_field(body)
+            for j, (P_hat, T_hat) in enumerate(spectra):
+                micro.stresses(P_hat, T_hat, out=hist[j], layers=layers)
+        for j, mac in enumerate(macro):
             hist[j] += mac[:, layers]
         return hist
+
+    def _history_by_steps(self, spectra, body: int, layers: slice, hist: np.ndarray) -> None:
+        """The micro part of :meth:`stress_history` under :attr:`stress_by_steps`, into
+        ``hist``: in round i, rank r makes layer by layer the whole window's stresses of step
+        i·R + r (:meth:`HalfSpaceStress.layer_fields`), keeps its own rows and sends every
+        other rank its rows, component by component straight from the transform's output,
+        while it receives theirs of steps i·R + q. Collective (point to point, one wait per
+        layer and round)."""
+        from mpi4py import MPI
+
+        comm = self.slab.comm
+        size, rank = comm.size, comm.rank
+        micro = self._micro_field(body, whole=True)
+        ends = np.cumsum(self.slab.counts)
+        bounds = [(int(e - c), int(e)) for c, e in zip(self.slab.counts, ends, strict=True)]
+        rows, n_layers, m = self.slab.rows, hist.shape[2], hist.shape[0]
+        tag = 7300                      # + the component: per pair, in order within a wait
+        for i in range(0, m, size):
+            j = i + rank
+            mine = (micro.layer_fields(*spectra[j], layers=layers) if j < m else None)
+            for kk in range(n_layers):
+                reqs = [comm.Irecv(hist[i + q, c, kk], source=q, tag=tag + c)
+                        for q in range(size) if q != rank and i + q < m for c in range(6)]
+                if mine is not None:
+                    _, sigma = next(mine)
+                    for q, (a, b) in enumerate(bounds):
+                        if q != rank:
+                            reqs.extend(comm.Isend(sigma[c, a:b], dest=q, tag=tag + c)
+                                        for c in range(6))
+                    hist[j, :, kk] = sigma[:, rows]
+                MPI.Request.Waitall(reqs)
 
     def _ellipse(self, body: int) -> EllipticalContactField:
         """The elliptical Hertz field of ``body`` (built once: it takes seconds)."""
@@ -653,7 +722,7 @@ class PositionCycle:
         (τ_DV, rate, low); rate and low are None without ``rainflow``."""
         sn, nz = self.woehler, self.z.size
         with event("stresses"):
-            spectra = [self.traction_spectra(f, body) for f in fields]
+            spectra = self.history_spectra(fields, body)
             macro = [self.macro_stress(f, body) for f in fields]
         m, rows, ny = len(fields), self.slab.nx_local, self.grid.ny
         plane = rows * ny

@@ -404,8 +404,10 @@ def to_material_frame(field: np.ndarray, shift: float, dx: float) -> np.ndarray:
 
 
 def main(argv=None) -> int:
-    """``python -m micropit_hpc.spectral plan N [N ...] [--batch B]``: measure the plans of the
-    N × N (or NxM) transforms into this machine's wisdom file (:func:`plan_wisdom`)."""
+    """``python -m micropit_hpc.spectral plan N [N ...] [--batch B [B ...]]``: measure the plans
+    of the N × N (or NxM) transforms into this machine's wisdom file (:func:`plan_wisdom`),
+    for each batch B (default 1 and 6: the single transforms of the contact solvers and the
+    six-plane batches of the stress layers; 1 means no batch)."""
     import argparse
     import time
 
@@ -414,14 +416,18 @@ def main(argv=None) -> int:
     sub = ap.add_subparsers(dest="command", required=True)
     p = sub.add_parser("plan", help="measure the plans of these grid sizes into the wisdom file")
     p.add_argument("sizes", nargs="+", help="N (an N x N grid) or NxM")
-    p.add_argument("--batch", type=int, default=None)
+    p.add_argument("--batch", type=int, nargs="+", default=[1, 6],
+                   help="transforms per call to plan (default: 1 and 6; 1 means no batch)")
     args = ap.parse_args(argv)
     shapes = []
     for size in args.sizes:
         nx, _, ny = size.lower().partition("x")
         shapes.append((int(nx), int(ny or nx)))
     t0 = time.perf_counter()
-    path = plan_wisdom(shapes, args.batch)
+    for batch in args.batch:
+        if batch < 1:
+            ap.error(f"--batch {batch}: give a number of transforms ≥ 1")
+        path = plan_wisdom(shapes, None if batch == 1 else batch)
     print(f"FFTW_MEASURE plans of {', '.join(args.sizes)} in {path} "
           f"({time.perf_counter() - t0:.1f} s)")
     return 0

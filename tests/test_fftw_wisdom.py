@@ -68,3 +68,28 @@ def test_wisdom_path_is_per_machine_and_can_be_given(monkeypatch, tmp_path):
     monkeypatch.setenv("MICROPIT_FFTW_PLANNER", "fast")
     with pytest.raises(spectral.MicropitError, match="allowed auto"):
         spectral.planner_flag()
+
+
+def _batch_planned(env) -> bool:
+    code = ("from micropit_hpc.spectral import RealFFT2\n"
+            f"print(RealFFT2({SHAPE!r}, batch=6).from_wisdom)")
+    out = subprocess.run([sys.executable, "-c", code], env={**os.environ, **env},
+                         capture_output=True, text=True, check=True).stdout.split()
+    return out[0] == "True"
+
+
+def test_plan_measures_the_six_plane_batches_of_the_stress_layers_too(tmp_path):
+    size = f"{SHAPE[0]}x{SHAPE[1]}"
+    only = {"MICROPIT_FFTW_WISDOM": str(tmp_path / "one.txt"), "MICROPIT_FFTW_PLANNER": "auto"}
+    both = {**only, "MICROPIT_FFTW_WISDOM": str(tmp_path / "both.txt")}
+    subprocess.run([sys.executable, "-m", "micropit_hpc.spectral", "plan", size, "--batch", "1"],
+                   env={**os.environ, **only}, check=True, capture_output=True)
+    subprocess.run([sys.executable, "-m", "micropit_hpc.spectral", "plan", size],
+                   env={**os.environ, **both}, check=True, capture_output=True)
+    assert _child(only)[0] and _child(both)[0]
+    assert not _batch_planned(only)
+    assert _batch_planned(both)
+    bad = subprocess.run([sys.executable, "-m", "micropit_hpc.spectral", "plan", size,
+                          "--batch", "0"], env={**os.environ, **only}, capture_output=True,
+                         text=True)
+    assert bad.returncode == 2 and "--batch 0" in bad.stderr

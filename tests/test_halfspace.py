@@ -71,6 +71,16 @@ def test_api_options_agree():
         hs.stresses(P, Tx, out=np.empty((6, 4, 16, 12)))
     with pytest.raises(ValueError):
         HalfSpaceStress(g, [-1e-3], NU)
+    # the layers one at a time, as views of the plan's output: the very numbers, both kernels
+    for kernel in ("numpy", None):
+        ref = hs.stresses(P, Tx, kernel=kernel)
+        got = [(kk, sigma.copy()) for kk, sigma in hs.layer_fields(P, Tx, kernel=kernel,
+                                                                  layers=slice(1, 4))]
+        assert [kk for kk, _ in got] == [0, 1, 2]
+        for kk, sigma in got:
+            np.testing.assert_array_equal(sigma, ref[:, 1 + kk])
+    with pytest.raises(ValueError, match="P_hat has shape"):
+        next(hs.layer_fields(P[:, :-1], Tx))
 
 
 # --- the printed A.1 formulas, mode by mode -------------------------------------------------

@@ -1,7 +1,10 @@
 """The streamed stress history on a slab of several ranks (docs/performance.md "Streamed
-stresses"): every rank takes the same chunks of layers, also when the slabs differ in size, and
-τ_DV equals the stacked whole-depth history on the slab bitwise and the one-rank result on its
-rows to round-off (the distributed transforms sum in another order).
+stresses"): every rank takes the same chunks of layers, also when the slabs differ in size.
+Over the slabs (``contact_parallel = "slabs"``) τ_DV equals the stacked whole-depth history on
+the slab bitwise and the one-rank result on its rows to round-off (the distributed transforms
+sum in another order); with the steps shared (``"steps"``: each rank transforms the whole
+window for its steps and sends the rows, ``PositionCycle.stress_by_steps``) it equals the
+one-rank result on its rows bit for bit.
 
 Run under ``mpirun -n 2 ... -m pytest --with-mpi -m mpi``. Each verdict is allgathered before it
 is asserted, so a failure on one rank fails every rank instead of hanging the other.
@@ -24,13 +27,15 @@ def all_ranks_agree(comm, ok: bool) -> bool:
 
 
 @pytest.mark.mpi(min_size=2)
-def test_streamed_stresses_on_uneven_slabs(tmp_path):
+@pytest.mark.parametrize("parallel", ["slabs", "steps"])
+def test_streamed_stresses_on_uneven_slabs(tmp_path, parallel):
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
     extra = SMALL.replace("n = 32", "n = 33").replace("layers = 4", "layers = 5")
     study = contact_study(load_scene(gear_scene(tmp_path, extra=extra)))
-    cyc = PositionCycle(study, 3, comm=comm)
+    cyc = PositionCycle(study, 3, comm=comm, parallel=parallel)
+    assert cyc.stress_by_steps == (parallel == "steps")
     counts = cyc.slab.counts
     m, ny = cyc.steps, cyc.grid.ny
     # two layers of the smallest slab's history: one of the largest; a per-rank rule would
@@ -43,14 +48,18 @@ def test_streamed_stresses_on_uneven_slabs(tmp_path):
         fields.append(cyc.solve_step(j, p))
         p = fields[-1].pressure
     one = PositionCycle(study, 3)
-    ok_slab, err = True, 0.0
+    ok_slab, ok_one, err = True, True, 0.0
     for body in (1, 2):
         tau, _, _ = cyc._streamed_dang_van(fields, body, False)
-        hist = np.stack([cyc.stresses(f, body) for f in fields])
-        ok_slab &= np.array_equal(tau, dang_van(hist, alpha=cyc.alpha_dv).tau_dv)
         ref = dang_van(np.stack([one.stresses(f, body) for f in fields]),
                        alpha=one.alpha_dv).tau_dv[:, cyc.slab.rows]
         err = max(err, float(np.abs(tau - ref).max() / np.abs(ref).max()))
+        if parallel == "steps":
+            ok_one &= np.array_equal(tau, ref)
+        else:
+            hist = np.stack([cyc.stresses(f, body) for f in fields])
+            ok_slab &= np.array_equal(tau, dang_van(hist, alpha=cyc.alpha_dv).tau_dv)
     assert all_ranks_agree(comm, ok_sizes), (sizes, counts)
     assert all_ranks_agree(comm, ok_slab)
+    assert all_ranks_agree(comm, ok_one), err
     assert all_ranks_agree(comm, err < 1e-12), err

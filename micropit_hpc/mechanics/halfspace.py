@@ -282,18 +282,44 @@ class HalfSpaceStress:
         kernels stored once per call (:mod:`micropit_hpc.compiled`; None:
         :data:`DEFAULT_KERNEL`); the two agree to round-off.
         """
-        ss = self._a.shape
-        for name, s in (("P_hat", P_hat), ("Tx_hat", Tx_hat), ("Ty_hat", Ty_hat)):
-            if s is not None and np.shape(s) != ss:
-                raise ValueError(f"{name} has shape {np.shape(s)}, expected {ss}")
-        idx = np.arange(self.z.size)
-        if layers is not None:
-            idx = idx[layers]
+        idx = self._layer_indices(layers)
         shape = (6, idx.size, self.slab.nx_local, self.grid.ny)
         if out is None:
             out = np.empty(shape)
         elif out.shape != shape or out.dtype != np.float64:
             raise ValueError(f"out must be float64 of shape {shape}")
+        plan = self._plan
+        for kk, C in self._layer_spectra(P_hat, Tx_hat, Ty_hat, idx, kernel):
+            if plan is None:
+                self.slab.inverse6(C, out[:, kk])
+            else:
+                out[:, kk] = plan.execute_inverse()
+        return out
+
+    def layer_fields(self, P_hat, Tx_hat, Ty_hat=None, layers=None,
+                     kernel: str | None = None):
+        """The layers of :meth:`stresses` one at a time, without its copy: yields (kk, σ) for
+        each of ``layers`` in turn (kk its index among them), σ (6, nx, ny) a view of the
+        batch plan's output, valid until the next layer is made. The whole window on one
+        rank only (a slab of several ranks has no such buffer: use :meth:`stresses`); the
+        same numbers as :meth:`stresses`."""
+        if self._plan is None:
+            raise ValueError("layer_fields needs the whole window on one rank (a one-rank slab)")
+        idx = self._layer_indices(layers)
+        for kk, _ in self._layer_spectra(P_hat, Tx_hat, Ty_hat, idx, kernel):
+            yield kk, self._plan.execute_inverse()
+
+    def _layer_indices(self, layers) -> np.ndarray:
+        idx = np.arange(self.z.size)
+        return idx if layers is None else idx[layers]
+
+    def _layer_spectra(self, P_hat, Tx_hat, Ty_hat, idx, kernel):
+        """Yields (kk, C) for each layer idx[kk]: C the six spectra of that layer (docs/model.md
+        A.1, C_c = E A_c + ζz E B_c), in the buffer the inverse transforms read."""
+        ss = self._a.shape
+        for name, s in (("P_hat", P_hat), ("Tx_hat", Tx_hat), ("Ty_hat", Ty_hat)):
+            if s is not None and np.shape(s) != ss:
+                raise ValueError(f"{name} has shape {np.shape(s)}, expected {ss}")
         compiled = resolve(DEFAULT_KERNEL if kernel is None else kernel,
                            "mechanics._halfspace_numba", "HalfSpaceStress.stresses")
         if compiled is None:   # the reference: the twelve kernel planes once per call
@@ -301,7 +327,7 @@ class HalfSpaceStress:
             _kernel_spectra(P_hat, Tx_hat, Ty_hat, self._a, self._b, self.nu, A, B)
             if self._nyq_row is not None or self._nyq_col is not None:
                 self._symmetrise(P_hat, Tx_hat, Ty_hat)
-        C, plan = self._C, self._plan
+        C = self._C
         nyq = tuple(-1 if n is None else n for n in (self._nyq_row, self._nyq_col))
         for kk, k in enumerate(idx):
             E, F = self._E[k], self._F[k]
@@ -314,11 +340,7 @@ class HalfSpaceStress:
                     np.multiply(A[c], E, out=C[c])
                     np.multiply(B[c], F, out=T)
                     C[c] += T
-            if plan is None:
-                self.slab.inverse6(C, out[:, kk])
-            else:
-                out[:, kk] = plan.execute_inverse()
-        return out
+            yield kk, C
 
     def spectra(self, p, qx, qy=None):
         """Half spectra (P̂, T̂x, T̂y) of σ_zz(0) = −p, σ_xz(0) = −q_x, σ_yz(0) = −q_y (views of
