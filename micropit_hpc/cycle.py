@@ -378,6 +378,15 @@ class PositionCycle:
         c = self.cond
         return c.p0 * math.sqrt(max(0.0, 1.0 - (x / c.b) ** 2))
 
+    def step_mean_pressure(self, step: int) -> float:
+        """p̄_j = p_H(x_c(t_j)) of time step j, computed at the first of j and its mirror
+        m − 1 − j: both spacings put the steps symmetrically about the contact's centre
+        (x_c(t_{m−1−j}) = −x_c(t_j)) and p_H is even, so the two are one number exactly
+        rather than to round-off (and the mirror reuses the step's lubricated factors,
+        :meth:`MixedLubrication.cached_factors`)."""
+        first = min(step, self.steps - 1 - step)
+        return self.mean_pressure(self.centre(self.time(first)))
+
     def slip(self, body: int, t: float) -> float:
         """Shift of surface ``body`` relative to the window, (u_i − ū) t."""
         u = self.cond.u1 if body == 1 else self.cond.u2
@@ -436,7 +445,7 @@ class PositionCycle:
         g, c, lub = self.grid, self.cond, self.scene.lubrication
         t = self.time(step)
         x_c = self.centre(t)
-        p_mean = self.mean_pressure(x_c)
+        p_mean = self.step_mean_pressure(step)
         r_now = tuple(fourier_shift(r, g, self.slip(i + 1, t))
                       for i, r in enumerate(self.rough_spectra))
         level = "smooth" if p_mean == 0.0 else self.level
@@ -768,21 +777,39 @@ class PositionCycle:
         return tau.reshape(shape), rate, low
 
     # ---- the load cycle ----------------------------------------------------------------------
+    def mirror_order(self, step: int) -> tuple[int, int]:
+        """The place of ``step`` in the order the contact solves the cycle's steps
+        (:meth:`_contact_steps`): by pair k = min(j, m − 1 − j) (step j and its mirror
+        m − 1 − j have the same p̄, :meth:`step_mean_pressure`, hence the same lubricated
+        factors but for their decay, :meth:`MixedLubrication.cached_factors`), then by j."""
+        return (min(step, self.steps - 1 - step), step)
+
+    def step_owner(self, step: int, ranks: int) -> int:
+        """The rank of a group of ``ranks`` that solves ``step`` under ``"steps"``: the pair
+        k = min(j, m − 1 − j) round robin, k mod ranks, so that a step and its mirror are
+        solved on one rank, one after the other."""
+        return self.mirror_order(step)[0] % ranks
+
     def _contact_steps(self, warm: dict | None,
                        on_step: Callable[[int], None] | None) -> list[StepFields]:
         """The contact at every time step of the cycle (:meth:`evaluate`), as StepFields on
         every rank of the group. Each step starts from its ``warm`` dict (the last evaluation's
         solution at that step) or cold, never from the step before, so that a step's solution
-        does not depend on which rank solved which steps: ``"steps"`` on any number of ranks
-        gives one rank's numbers bit for bit. Under ``"steps"`` with several ranks, rank r
-        solves the steps j ≡ r (mod ranks) on the whole window, without communication, and
-        the step fields are then broadcast from their solver in step order; the first error
-        of any rank (the lowest step's) is raised on every rank of the group."""
+        does not depend on which rank solved which steps, or in which order: ``"steps"`` on
+        any number of ranks gives one rank's numbers bit for bit. The steps are solved in
+        :meth:`mirror_order` (each step next to its mirror, whose lubricated factors it
+        reuses). Under ``"steps"`` with several ranks, rank r solves the steps of
+        :meth:`step_owner` r on the whole window, without communication, and the step fields
+        are then broadcast from their solver in step order; the first error in that order of
+        any rank is raised on every rank of the group, the one a single rank would raise."""
         comm = self.slab.comm
         share = self.contact_parallel == "steps" and comm.size > 1
-        first, stride = (comm.rank, comm.size) if share else (0, 1)
+        ranks = comm.size if share else 1
+        order = sorted((j for j in range(self.steps)
+                        if not share or self.step_owner(j, ranks) == comm.rank),
+                       key=self.mirror_order)
         mine, error = {}, None
-        for j in range(first, self.steps, stride):
+        for done, j in enumerate(order, start=1):
             try:
                 with event("contact"):
                     mine[j] = self.solve_step(
@@ -790,16 +817,17 @@ class PositionCycle:
             except MicropitError as e:
                 if not share:
                     raise
-                error = (j, e)
+                error = (self.mirror_order(j), e)
                 break
             if on_step is not None:
-                on_step(j + 1)
+                on_step(min(self.steps, done * ranks))
         if not share:
             return [mine[j] for j in range(self.steps)]
         failed = [e for e in comm.allgather(error) if e is not None]
         if failed:
             raise min(failed, key=lambda f: f[0])[1]
-        return [comm.bcast(mine.get(j), root=j % comm.size) for j in range(self.steps)]
+        return [comm.bcast(mine.get(j), root=self.step_owner(j, ranks))
+                for j in range(self.steps)]
 
     def wear_of(self, fields: list[StepFields], body: int) -> WearRate:
         """The Archard wear per load cycle of ``body`` in its material frame over the cycle of
@@ -853,8 +881,9 @@ class PositionCycle:
         ``warm``: the contact solver's warm starts by time step, kept by the caller from one
         evaluation to the next (:meth:`solve_step`); :func:`~micropit_hpc.life.run_block`
         keeps them within a block and starts each block without, so that a run restarted from
-        a block's checkpoint repeats the straight run's numbers exactly. ``on_step(j)``:
-        called after each time step j (1-based) of the contact that this rank solves, for
+        a block's checkpoint repeats the straight run's numbers exactly. ``on_step(k)``:
+        called after each time step of the contact that this rank solves, k the steps the
+        group has solved so far (this rank's count × the ranks sharing them, at most m), for
         progress reports."""
         t0 = time.perf_counter()
         g, fat = self.grid, self.scene.fatigue

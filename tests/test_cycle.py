@@ -52,8 +52,41 @@ def test_window_kinematics(tmp_path):
         assert reference_half_width(study) == pytest.approx(study.conditions[5].b, rel=2e-3)
         with pytest.raises(MicropitError, match="steps 0 to 3"):
             cyc.time(4)
+        # p̄ of a step and of its mirror: one number, p_H(x_c) of the first, within rounding
+        # of p_H at the mirror's own x_c (a square root of 1 − x²/b²: a few ulp)
+        for j in range(m):
+            p_j = cyc.step_mean_pressure(j)
+            assert p_j == cyc.step_mean_pressure(m - 1 - j)
+            assert p_j == pytest.approx(cyc.mean_pressure(cyc.centre(cyc.time(j))), rel=1e-14)
+            assert cyc.mirror_order(j) == (min(j, m - 1 - j), j)
     with pytest.raises(MicropitError, match="positions 1 to 11"):
         PositionCycle(study, 12)
+
+
+def test_mirror_steps_share_their_dispersion_relation(tmp_path, monkeypatch):
+    """The contact solves the steps in mirror order (j next to m − 1 − j, which have one p̄):
+    the dispersion relation of the mixed model is solved once per pair and body, and the
+    factors each step gets are those computed afresh for it, bit for bit."""
+    from micropit_hpc.lubrication import mixed
+
+    calls = []
+    solve = mixed.solve_dispersion_rows
+    monkeypatch.setattr(mixed, "solve_dispersion_rows",
+                        lambda *a, **k: calls.append(1) or solve(*a, **k))
+    monkeypatch.setattr(mixed, "FACTOR_CACHE_BYTES", 0)     # the last (body, p̄) only
+    study = contact_study(load_scene(gear_scene(tmp_path)))
+    cyc = PositionCycle(study, 3, steps=5)
+    assert cyc.level == "mixed"
+    cyc._contact_steps(None, None)
+    assert len(calls) == 2 * 3                  # pairs (0, 4), (1, 3) and step 2; two bodies
+    model = cyc.mixed
+    for body in (1, 2):
+        p_mean, t = cyc.step_mean_pressure(3), cyc.time(3)
+        model.cached_factors(body, cyc.step_mean_pressure(1), cyc.time(1))
+        got = model.cached_factors(body, p_mean, t)
+        h_a, h_t, D = model.lubricated_factors(body, p_mean, t)
+        for u, v in zip(got, (h_a, h_t - h_a, D), strict=True):
+            assert np.array_equal(u, v)
 
 
 def _contact(b: float, S: float):

@@ -209,6 +209,7 @@ class MixedLubrication:
         nabla[0, 0] = 0.0
         self.nabla = nabla
         self._factors: dict[tuple[int, float, float], tuple] = {}
+        self._steady: dict[int, tuple[float, tuple]] = {}     # body → (p̄, steady factors)
         self._factor_bytes = 0
         self._scan = None
         #: (φ, levels, f) of every film balance the last :meth:`solve` evaluated: levels 0 on
@@ -219,6 +220,23 @@ class MixedLubrication:
     def lubricated_factors(self, body: int, p_mean: float, t: float):
         """(h_a/r, h_t/r, decay) of surface ``body`` (1 or 2) per mode at mean pressure p̄ and
         time t since the window entered: H_lub,i = (h_a/r) r_i(t) + (h_t/r − h_a/r) r_i(0) D."""
+        h_a, h_t, rate = self.steady_factors(body, p_mean)
+        return h_a, h_t, self.decay(rate, t)
+
+    @staticmethod
+    def decay(rate: np.ndarray, t: float) -> np.ndarray:
+        """D = e^{i(ψ − k_x u_i/ū) ū t} per mode, |D| ≤ 1 (the growing part clipped), from
+        ``rate`` = i(ψ − k_x u_i/ū) ū of :meth:`steady_factors`; D = 1 at the mean mode."""
+        exponent = rate * t
+        D = np.exp(np.minimum(exponent.real, 0.0) + 1j * exponent.imag)
+        D[0, 0] = 1.0
+        return D
+
+    def steady_factors(self, body: int, p_mean: float):
+        """(h_a/r, h_t/r, rate) of surface ``body`` at mean pressure p̄: the parts of
+        :meth:`lubricated_factors` that do not depend on the time, the complementary wave's
+        rate i(ψ − k_x u_i/ū) ū from the dispersion relation ψ (:func:`solve_dispersion_rows`)
+        included."""
         g, oil = self.grid, self.lubricant
         ui, uj = self.u[body - 1], self.u[2 - body]
         ub, h, Ep = self.u_mean, self.h_mean, self.E_prime
@@ -243,22 +261,31 @@ class MixedLubrication:
         a = kx * ui / ub + 0 * ky
         psi, _ = solve_dispersion_rows(a, Ep * h**3 / (48 * ub), h * Ep / (4 * B),
                                        ky + 0 * kx, eta_x, eta_y)
-        exponent = 1j * (psi - a) * ub * t
-        D = np.exp(np.minimum(exponent.real, 0.0) + 1j * exponent.imag)
-        h_a[0, 0] = h_t[0, 0] = D[0, 0] = 1.0
-        return h_a, h_t, D
+        h_a[0, 0] = h_t[0, 0] = 1.0
+        return h_a, h_t, 1j * (psi - a) * ub
 
     def cached_factors(self, body: int, p_mean: float, t: float):
         """(h_a/r, h_t/r − h_a/r, decay) of :meth:`lubricated_factors`, kept for the next call
         with the same (body, p̄, t): every load-cycle evaluation of a work item visits the
         same time steps, and the factors depend on neither the surfaces nor the pits. Kept up
-        to :data:`FACTOR_CACHE_BYTES` in all; beyond it they are computed each time."""
+        to :data:`FACTOR_CACHE_BYTES` in all; beyond it they are computed each time, but for
+        the time-independent part of the last (body, p̄) of each body (:meth:`steady_factors`:
+        the dispersion relation, most of the cost), which is always kept, for the mirror step
+        of a load cycle that comes next (the same p̄, another t:
+        :meth:`~micropit_hpc.cycle.PositionCycle.mirror_order`). The same numbers as
+        :meth:`lubricated_factors` in every case."""
         key = (body, float(p_mean), float(t))
         hit = self._factors.get(key)
         if hit is not None:
             return hit
-        h_a, h_t, D = self.lubricated_factors(body, p_mean, t)
-        hit = (h_a, h_t - h_a, D)
+        last = self._steady.get(body)
+        if last is not None and last[0] == float(p_mean):
+            h_a, dh, rate = last[1]
+        else:
+            h_a, h_t, rate = self.steady_factors(body, p_mean)
+            dh = h_t - h_a
+            self._steady[body] = (float(p_mean), (h_a, dh, rate))
+        hit = (h_a, dh, self.decay(rate, t))
         size = 3 * h_a.nbytes
         if self._factor_bytes + size <= FACTOR_CACHE_BYTES:
             self._factors[key] = hit
