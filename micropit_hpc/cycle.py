@@ -784,11 +784,17 @@ class PositionCycle:
         factors but for their decay, :meth:`MixedLubrication.cached_factors`), then by j."""
         return (min(step, self.steps - 1 - step), step)
 
-    def step_owner(self, step: int, ranks: int) -> int:
-        """The rank of a group of ``ranks`` that solves ``step`` under ``"steps"``: the pair
-        k = min(j, m − 1 − j) round robin, k mod ranks, so that a step and its mirror are
-        solved on one rank, one after the other."""
-        return self.mirror_order(step)[0] % ranks
+    def step_owners(self, ranks: int) -> list[int]:
+        """The rank of a group of ``ranks`` that solves each step under ``"steps"``: the pairs
+        (j, m − 1 − j) round robin (rank k mod ranks, k = min(j, m − 1 − j)), so that a step
+        and its mirror are solved on one rank, one after the other, where that gives no rank
+        more than ⌈m/ranks⌉ steps (63 steps on 2 ranks, 20 on 2 or 5, 40 on 4); otherwise the
+        steps round robin (j mod ranks: 20 steps on 4 ranks would be 6, 6, 4, 4 in pairs)."""
+        m = self.steps
+        pairs = [min(j, m - 1 - j) % ranks for j in range(m)]
+        if max(pairs.count(r) for r in range(ranks)) <= -(-m // ranks):
+            return pairs
+        return [j % ranks for j in range(m)]
 
     def _contact_steps(self, warm: dict | None,
                        on_step: Callable[[int], None] | None) -> list[StepFields]:
@@ -798,15 +804,15 @@ class PositionCycle:
         does not depend on which rank solved which steps, or in which order: ``"steps"`` on
         any number of ranks gives one rank's numbers bit for bit. The steps are solved in
         :meth:`mirror_order` (each step next to its mirror, whose lubricated factors it
-        reuses). Under ``"steps"`` with several ranks, rank r solves the steps of
-        :meth:`step_owner` r on the whole window, without communication, and the step fields
+        reuses). Under ``"steps"`` with several ranks, rank r solves its steps
+        (:meth:`step_owners`) on the whole window, without communication, and the step fields
         are then broadcast from their solver in step order; the first error in that order of
         any rank is raised on every rank of the group, the one a single rank would raise."""
         comm = self.slab.comm
         share = self.contact_parallel == "steps" and comm.size > 1
         ranks = comm.size if share else 1
-        order = sorted((j for j in range(self.steps)
-                        if not share or self.step_owner(j, ranks) == comm.rank),
+        owners = self.step_owners(ranks)
+        order = sorted((j for j in range(self.steps) if owners[j] == comm.rank or not share),
                        key=self.mirror_order)
         mine, error = {}, None
         for done, j in enumerate(order, start=1):
@@ -826,8 +832,7 @@ class PositionCycle:
         failed = [e for e in comm.allgather(error) if e is not None]
         if failed:
             raise min(failed, key=lambda f: f[0])[1]
-        return [comm.bcast(mine.get(j), root=self.step_owner(j, ranks))
-                for j in range(self.steps)]
+        return [comm.bcast(mine.get(j), root=owners[j]) for j in range(self.steps)]
 
     def wear_of(self, fields: list[StepFields], body: int) -> WearRate:
         """The Archard wear per load cycle of ``body`` in its material frame over the cycle of

@@ -304,11 +304,11 @@ def test_a_small_window_solves_its_contact_on_every_rank_alike_as_one_rank(monke
 @pytest.mark.mpi(min_size=2)
 @pytest.mark.timeout(300)
 def test_a_cycle_shares_its_time_steps_over_the_ranks_with_one_ranks_numbers():
-    """``contact_parallel = "steps"``: rank r solves the steps of the pairs (j, m − 1 − j)
-    with min(j, m − 1 − j) ≡ r (mod 2) on the whole window, each next to its mirror, and the
-    fields are broadcast: every step's fields equal one rank's bit for bit on every rank, in
-    two passes (the second warm-started from the first's ``warm`` dicts), each rank solved
-    only its own steps, and a solver error on one rank's step is raised on both."""
+    """``contact_parallel = "steps"``: rank r solves its steps (``step_owners``) on the whole
+    window, each next to its mirror, and the fields are broadcast: every step's fields equal
+    one rank's bit for bit on every rank, in two passes (the second warm-started from the
+    first's ``warm`` dicts), each rank solved only its own steps, and a solver error on one
+    rank's step is raised on both."""
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
@@ -320,8 +320,8 @@ def test_a_cycle_shares_its_time_steps_over_the_ranks_with_one_ranks_numbers():
     ok = shared.contact_parallel == "steps" and not shared.half_spaces.distributed
     ok = ok and shared.level == one.level == "mixed"
     m = one.steps
-    mine = sorted(j for j in range(m) if min(j, m - 1 - j) % comm.size == comm.rank)
-    ok = ok and [shared.step_owner(j, comm.size) for j in mine] == [comm.rank] * len(mine)
+    owners = shared.step_owners(comm.size)
+    mine = sorted(j for j in range(m) if owners[j] == comm.rank)
     warm1, warm2 = {}, {}
     for _ in range(2):
         solved = []
@@ -368,7 +368,7 @@ def test_steps_raised_by_the_kinematics_are_shared_over_the_ranks():
     a = one._contact_steps(None, None)
     b = shared._contact_steps(None, solved.append)
     m = one.steps
-    count = sum(1 for j in range(m) if min(j, m - 1 - j) % comm.size == comm.rank)
+    count = shared.step_owners(comm.size).count(comm.rank)
     ok = ok and solved == [min(m, k * comm.size) for k in range(1, count + 1)]
     ok = ok and len(b) == one.steps and all(
         np.array_equal(x.pressure, y.pressure) and x.t == y.t for x, y in zip(a, b, strict=True))

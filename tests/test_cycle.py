@@ -63,6 +63,21 @@ def test_window_kinematics(tmp_path):
         PositionCycle(study, 12)
 
 
+def test_steps_go_to_the_ranks_in_mirror_pairs_where_that_keeps_them_even(tmp_path):
+    """``step_owners``: the pairs (j, m − 1 − j) round robin where no rank then gets more than
+    ⌈m/R⌉ steps, else the steps round robin (the balance of the contact's share comes first)."""
+    study = contact_study(load_scene(gear_scene(tmp_path)))
+    for m, ranks, paired in ((63, 2, True), (5, 2, True), (40, 4, True), (20, 5, True),
+                             (20, 4, False), (20, 20, False), (7, 1, True)):
+        owners = PositionCycle(study, 3, steps=m).step_owners(ranks)
+        counts = [owners.count(r) for r in range(ranks)]
+        assert max(counts) == -(-m // ranks) and sum(counts) == m
+        together = all(owners[j] == owners[m - 1 - j] for j in range(m))
+        assert together == paired, (m, ranks)
+        if not paired:
+            assert owners == [j % ranks for j in range(m)]
+
+
 def test_mirror_steps_share_their_dispersion_relation(tmp_path, monkeypatch):
     """The contact solves the steps in mirror order (j next to m − 1 − j, which have one p̄):
     the dispersion relation of the mixed model is solved once per pair and body, and the
