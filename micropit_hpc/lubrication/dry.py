@@ -154,6 +154,20 @@ RESET_ON_ENTRY = False
 #: the restart the whole solve took 339; tests/test_dry_contact.py).
 STALL_ITERATIONS = 200
 
+#: Early updates of the yielded set in a cold solve (:func:`solve_dry_contact` without
+#: ``p_init``, and each level of its coarse-to-fine start): while the inexact search's set
+#: still changes, it is updated after this many CG iterations instead of after an elastic
+#: solve to √tol; once an update leaves it unchanged the search goes on as before (the solve
+#: finished to √tol, then to tol). The set of a cold start is far from the answer, and every
+#: update restarts the CG, so converging the elastic pressure of a set about to change was
+#: wasted (the paper gear's steps at 64²–1024²: 0.5–0.7× the fine grid's iterations, the same
+#: pressure error; docs/performance.md §11, "Early updates of the yielded set"). 0: none.
+#: Warm starts (whose set is nearly the answer already) keep the full inexact solves.
+EARLY_UPDATE_ITERATIONS = 3
+#: At most this many early updates per solve (a set that keeps changing then goes on with
+#: the full inexact solves, whose release threshold stops points flipping for ever).
+EARLY_UPDATES_MAX = 32
+
 #: The implementation of the iteration's elementwise stages that :func:`solve_dry_contact` uses
 #: when none is given: "auto" (compiled where Numba can be imported, else NumPy), "numba" or
 #: "numpy" (:mod:`micropit_hpc.compiled`). A module-level switch for whole runs.
@@ -435,7 +449,8 @@ def _coarse_start(g0_whole: np.ndarray, grid: Grid, E_prime: float, P: float, p_
         free = None if frees[level] is None else frees[level] >= 0.5
         try:
             sol = solve_dry_contact(g, hs, P, p_lim, tol=tol, max_iter=max_iter - used,
-                                    p_init=p, kernel=kernel, coarsest=0, free=free)
+                                    p_init=p, kernel=kernel, coarsest=0, free=free,
+                                    early_updates=True)
         except ContactError:        # e.g. a tolerance below the coarse grid's round-off:
             return None, used       # the fine solve starts from uniform pressure instead
         used += sol.iterations
@@ -447,7 +462,8 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
                       p_lim: float = math.inf, *, tol: float, max_iter: int,
                       p_init: np.ndarray | None = None,
                       kernel: str | None = None, coarsest: int | None = None,
-                      free: np.ndarray | None = None) -> DryContact:
+                      free: np.ndarray | None = None,
+                      early_updates: bool | None = None) -> DryContact:
     """Load-controlled elastic–perfectly-plastic contact of the undeformed gap ``gap0``.
 
     Elastic part: Polonsky & Keer (1999), converged when the relative residual
@@ -478,6 +494,11 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     pressure); ``max_iter`` bounds the total number of CG steps. ``tol`` and
     ``max_iter`` are the scene's ``lubrication.tolerance`` and ``lubrication.max_iterations``
     (:class:`~micropit_hpc.scene.LubricationSpec`), which the callers pass.
+
+    ``early_updates``: whether the yielded set's search starts with early updates, every
+    :data:`EARLY_UPDATE_ITERATIONS` CG iterations while the set changes (None: for a cold
+    solve, ``p_init`` None; the coarse-to-fine start's levels have them too). Only the path
+    to the set changes: the answer meets the same conditions at the same tolerance.
 
     ``free``: points held at p = 0 whatever their gap (bool, this rank's rows; None: none),
     the open micropits of ``life.pit_contact = "open"`` (docs/life.md): the load goes to
@@ -538,6 +559,8 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
 
     stages = iteration_stages(g0.shape, kernel)
     used = 0
+    if early_updates is None:
+        early_updates = p_init is None
     levels = coarse_levels(grid, coarsest) if p_init is None else 0
     if levels:
         whole = g0 if hs.slab is None else hs.slab.allgather_rows(g0)
@@ -556,12 +579,15 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         p[held] = 0.0
         plastic &= ~held
     error, settled = math.inf, False
+    early_left = EARLY_UPDATES_MAX if early_updates and EARLY_UPDATE_ITERATIONS > 0 else 0
     updates = 0
     # With a finite cap the yielded set is first sought with inexact elastic solves (tolerance
     # √tol): a set that will change anyway needs no converged pressure. The search goes on at
     # tol once the set holds at √tol, once a solve starts already within √tol (the inexact
     # pressures no longer move, and a few points could flip in and out of the set for ever)
     # or after LOOSE_UPDATES updates. The answer has to meet the same conditions at tol.
+    # A cold solve first updates the set every EARLY_UPDATE_ITERATIONS iterations, until an
+    # update leaves it unchanged (or after EARLY_UPDATES_MAX of them).
     tol_given, tol = tol, residual_threshold(tol, grid)
     phase_tol = (max(tol, math.sqrt(tol)) if math.isfinite(p_lim) and LOOSE_UPDATES > 0
                  else tol)
@@ -582,10 +608,13 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         excluded = plastic if n_pl else None
         if held is not None:
             excluded = held if excluded is None else excluded | held
-        p, g, it, error = _polonsky_keer(g_fixed, hs, P_el, scale, phase_tol, max_iter - used,
+        capped = early_left > 0 and phase_tol > tol
+        budget = min(max_iter - used, EARLY_UPDATE_ITERATIONS) if capped else max_iter - used
+        p, g, it, error = _polonsky_keer(g_fixed, hs, P_el, scale, phase_tol, budget,
                                          p, excluded, N, group, stages)
         used += it
-        if error > phase_tol:
+        early = capped and error > phase_tol and it == budget
+        if error > phase_tol and not early:
             break
         p_total = np.where(plastic, p_lim, p)
         grow = p > p_lim
@@ -595,6 +624,16 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         # update), seen on the paper gear's 512² and 1024² windows
         release = plastic & (g > phase_tol * scale)
         n_grow, n_release = group.sums(np.count_nonzero(grow), np.count_nonzero(release))
+        if early:       # an early update: not counted in LOOSE_UPDATES
+            updates -= 1
+            early_left -= 1
+            if n_grow or n_release:
+                plastic = (plastic & ~release) | grow
+            else:       # the set held: from here on the inexact solves run to √tol
+                early_left = 0
+            p = p_total
+            np.minimum(p, p_lim, out=p)
+            continue
         if phase_tol > tol and (it <= 1 or updates >= LOOSE_UPDATES
                                 or not (n_grow or n_release)):
             phase_tol = tol         # from here on the exact search (or its confirmation)
