@@ -27,7 +27,8 @@ iterations times its share of the fine grid's points, added to the fine grid's: 
 cost in fine iterations) and each coarse level's iterations. One core. Prints a markdown table
 with date and commit. ``--coarse-tol`` and ``--coarsest`` set ``dry.COARSE_TOL`` and
 ``dry.COARSEST`` for "after" (the variants of the coarse-to-fine start compared in
-docs/performance.md §11).
+docs/performance.md §11), ``--early-update-iterations`` ``dry.EARLY_UPDATE_ITERATIONS`` (0:
+the yielded set's search without early updates).
 Run "before" with ``MICROPIT_FFTW_PLANNER=estimate`` and ``--only before`` for the plans as
 they were, "after" with ``--only after`` once ``python -m micropit_hpc.spectral plan …`` has
 measured this machine's plans. Timings, not tests.
@@ -168,6 +169,9 @@ def main() -> None:
                     help="'after' with this dry.COARSE_TOL (the coarse levels' tolerance)")
     ap.add_argument("--coarsest", type=int, default=None,
                     help="'after' with this dry.COARSEST (points per side of the coarsest level)")
+    ap.add_argument("--early-update-iterations", type=int, default=None,
+                    help="'after' with this dry.EARLY_UPDATE_ITERATIONS (0: no early updates "
+                         "of the yielded set, the search as before commit 67a2396)")
     args = ap.parse_args()
     if args.unscaled:
         dry.TOLERANCE_POINTS = 0
@@ -175,9 +179,12 @@ def main() -> None:
         dry.COARSE_TOL = args.coarse_tol
     if args.coarsest is not None:
         dry.COARSEST = args.coarsest
+    if args.early_update_iterations is not None:
+        dry.EARLY_UPDATE_ITERATIONS = args.early_update_iterations
     print(f"cold dry contact solves, {args.surface} surface, {datetime.date.today()}, commit "
           f"{source_commit()}, one core, median of {args.repeat}\n")
-    print(f"dry.COARSEST = {dry.COARSEST}, dry.COARSE_TOL = {dry.COARSE_TOL} ('after')\n")
+    print(f"dry.COARSEST = {dry.COARSEST}, dry.COARSE_TOL = {dry.COARSE_TOL}, "
+          f"dry.EARLY_UPDATE_ITERATIONS = {dry.EARLY_UPDATE_ITERATIONS} ('after')\n")
     print("| grid | solver | tol | iterations (fine) | fine-equivalent | coarse levels | "
           "time [s] | ms per fine it. | pressure error | contact area | plastic |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
