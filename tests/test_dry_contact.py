@@ -273,6 +273,49 @@ def test_a_warm_solve_makes_no_early_updates(monkeypatch):
     assert np.array_equal(warm.pressure, same.pressure)
 
 
+def test_a_failed_solve_reports_the_iterations_it_spent():
+    """A solve stopped by max_iterations says so, with the iterations it spent, a coarse
+    level's included (at 10 the 64² level fails after its 5, half the budget, and the fine
+    solve from uniform pressure takes the other 5)."""
+    g, gap0 = rough_gap(3)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    for budget in (10, 30):
+        with pytest.raises(ContactError, match=f"after {budget} iterations") as e:
+            solve_dry_contact(gap0, hs, 1.0e9, 2.5e9, tol=TOL, max_iter=budget)
+        assert e.value.iterations == budget
+
+
+def test_a_point_on_the_edge_of_the_yielded_set_leaves_it_at_most_once():
+    """The paper gear's position 2 at 512², step 20, cold at φ = 1: on the 256² level of the
+    coarse-to-fine start one point left the yielded set and came back at every update (its gap
+    open by 1.24 residuals at the cap, its pressure one ulp above the cap without it), 4925
+    one-iteration updates until max_iterations, 12 s for a 1-s solve. At the full tolerance a
+    point now leaves the set at most once. Round-off decides whether a CPU meets this point;
+    where it does not, the solve takes its ordinary ~150 iterations either way."""
+    from dataclasses import replace
+
+    from helpers import SCENES
+
+    from micropit_hpc.cycle import PositionCycle
+    from micropit_hpc.plan import make_plan
+    from micropit_hpc.scene import load_scene
+    from micropit_hpc.spectral import fourier_shift
+
+    base = load_scene(str(SCENES / "paper_gear_z23.toml"))
+    scene = replace(base, window=replace(base.window, nx=512, ny=None))
+    plan = make_plan(scene, positions=[2], life=False)
+    cycle = PositionCycle(plan.study, 2, window=plan.window)
+    t = cycle.time(20)
+    gap0 = cycle._fft.inverse(sum(fourier_shift(s, cycle.grid, cycle.slip(i + 1, t))
+                                  for i, s in enumerate(cycle.rough_spectra)))
+    hs = ElasticHalfSpaces(cycle.grid, cycle.study.E_prime)
+    P = cycle.mean_pressure(cycle.centre(t))
+    sol = solve_dry_contact(gap0 - gap0.min(), hs, P, cycle.p_lim, tol=TOL, max_iter=MAX_ITER)
+    assert sol.iterations < 1000
+    assert sol.pressure.max() <= cycle.p_lim
+    assert sol.pressure.mean() == pytest.approx(P, rel=1e-12)
+
+
 def test_a_finer_grid_is_held_to_a_proportionally_smaller_residual(monkeypatch):
     """The stopping rule (dry.residual_threshold): ε ≤ tol on grids up to 256 points along
     the longer side, ε ≤ tol·(256/n)^0.4 beyond; a solve stops at that threshold;
