@@ -5,10 +5,10 @@ many solves take more iterations with them than without.
 
     .venv/bin/python benchmarks/bench_early_updates.py --n 64 --position 3 --phi 0.25 0.5 0.75 1
 
-Each step's rough gap (both flanks slid into place, as ``bench_multilevel.gear_problem`` for
-the middle step) is solved cold at the solid-load fractions ``--phi`` of the step's mean
-pressure, as the mixed level's φ scan does, to ``--tol``; the reference is the solve at
-``--ref-tol``. One core. Iterations are deterministic; the times are not, and are not printed.
+Each step's rough gap (``PositionCycle.rough_gap``: both flanks slid into place) is solved
+cold at the solid-load fractions ``--phi`` of the step's mean pressure, as the mixed level's
+φ scan does, to ``--tol``; the reference is the solve at ``--ref-tol``. One core.
+Iterations are deterministic; the times are not, and are not printed.
 """
 
 from __future__ import annotations
@@ -23,7 +23,6 @@ from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.lubrication import dry
 from micropit_hpc.plan import make_plan
 from micropit_hpc.scene import load_scene
-from micropit_hpc.spectral import fourier_shift
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -34,14 +33,8 @@ def step_gaps(n: int, position: int):
     scene = replace(base, window=replace(base.window, nx=n, ny=None))
     plan = make_plan(scene, positions=[position], life=False)
     cycle = PositionCycle(plan.study, position, window=plan.window)
-    out = []
-    for j in range(cycle.steps):
-        t = cycle.time(j)
-        r = sum(fourier_shift(s, cycle.grid, cycle.slip(i + 1, t))
-                for i, s in enumerate(cycle.rough_spectra))
-        gap0 = cycle._fft.inverse(r)
-        out.append((j, gap0 - gap0.min(), cycle.mean_pressure(cycle.centre(t))))
-    return cycle, out
+    return cycle, [(j, cycle.rough_gap(j), cycle.mean_pressure(cycle.centre(cycle.time(j))))
+                   for j in range(cycle.steps)]
 
 
 def main(argv=None) -> None:

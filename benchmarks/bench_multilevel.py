@@ -77,18 +77,14 @@ def gear_problem(n: int, position: int = 3):
     from micropit_hpc.cycle import PositionCycle
     from micropit_hpc.plan import make_plan
     from micropit_hpc.scene import load_scene
-    from micropit_hpc.spectral import fourier_shift
 
     base = load_scene(str(ROOT / "scenes" / "paper_gear_z23.toml"))
     scene = replace(base, window=replace(base.window, nx=n, ny=None))
     plan = make_plan(scene, positions=[position], life=False)
     cycle = PositionCycle(plan.study, position, window=plan.window)
-    t = cycle.time((cycle.steps + 1) // 2 - 1)
-    r = sum(fourier_shift(s, cycle.grid, cycle.slip(i + 1, t))
-            for i, s in enumerate(cycle.rough_spectra))
-    gap0 = cycle._fft.inverse(r)
-    gap0 = gap0 - gap0.min()
-    p_mean = cycle.mean_pressure(cycle.centre(t))
+    middle = (cycle.steps + 1) // 2 - 1
+    gap0 = cycle.rough_gap(middle)
+    p_mean = cycle.mean_pressure(cycle.centre(cycle.time(middle)))
     return gap0, ElasticHalfSpaces(cycle.grid, cycle.study.E_prime), p_mean, cycle.p_lim
 
 

@@ -392,6 +392,19 @@ class PositionCycle:
         u = self.cond.u1 if body == 1 else self.cond.u2
         return (u - self.cond.u_mean) * t
 
+    def rough_at(self, t: float) -> tuple:
+        """Half spectra of each surface's rough clearance −z_i at time t, each slid by its
+        :meth:`slip` (:func:`~micropit_hpc.spectral.fourier_shift`)."""
+        return tuple(fourier_shift(r, self.grid, self.slip(i + 1, t))
+                     for i, r in enumerate(self.rough_spectra))
+
+    def rough_gap(self, step: int) -> np.ndarray:
+        """The undeformed rough gap of both surfaces at time step ``step`` (whole window,
+        its minimum at 0): the dry solve's gap at φ = 1 up to a constant, for benchmarks and
+        tests that solve one step's contact by itself."""
+        gap = self._fft.inverse(sum(self.rough_at(self.time(step))))
+        return gap - gap.min()
+
     # ---- one step ----------------------------------------------------------------------------
     # the contact of one step at each level (:data:`~micropit_hpc.plan.LEVELS`): (rough
     # clearance spectra at t, p̄, t, warm start, warm dict) → (pressure, clearance, φ, iterations)
@@ -446,8 +459,7 @@ class PositionCycle:
         t = self.time(step)
         x_c = self.centre(t)
         p_mean = self.step_mean_pressure(step)
-        r_now = tuple(fourier_shift(r, g, self.slip(i + 1, t))
-                      for i, r in enumerate(self.rough_spectra))
+        r_now = self.rough_at(t)
         level = "smooth" if p_mean == 0.0 else self.level
         free = self._open_pits(t, p_mean) if level != "smooth" else None
         try:
