@@ -32,7 +32,7 @@ import numpy as np
 
 from micropit_hpc.conditions import ContactConditions, ContactStudy
 from micropit_hpc.errors import MicropitError
-from micropit_hpc.fatigue.dangvan import ALPHA_DV, dang_van
+from micropit_hpc.fatigue.dangvan import ALPHA_DV, DangVanStream, dang_van
 from micropit_hpc.fatigue.dangvan import CHUNK as DV_CHUNK
 from micropit_hpc.fatigue.rainflow import rainflow_damage
 from micropit_hpc.fatigue.sn import WoehlerLine
@@ -733,53 +733,32 @@ class PositionCycle:
         (O(N² m)); then, chunk by chunk of :meth:`chunk_layers` layers, the chunk's history
         (:meth:`stress_history`, written into one reused buffer) goes through Dang Van.
 
-        Dang Van is fed the very point batches that one call on the whole (m, 6, N_z, rows,
-        ny) history makes (its ``chunk`` of consecutive points in (z, x, y) order; a batch that
-        straddles two layer chunks is completed in a small carry buffer): its iteration
-        compacts converged points away, and the rounding of its sums can depend on how many
-        stay, so other batches could move τ_DV by an ulp. With the same batches the results
-        equal the whole history's bit for bit. With ``rainflow`` the series τ̂ + α σ_H of every
-        point is kept (m × N_z × rows × ny) and counted at the end as before. Returns
-        (τ_DV, rate, low); rate and low are None without ``rainflow``."""
+        The chunks go through Dang Van as a :class:`~micropit_hpc.fatigue.dangvan.DangVanStream`
+        (points in (z, x, y) order, the NumPy path in batches of ``DV_CHUNK``), whose results
+        equal one call on the whole (m, 6, N_z, rows, ny) history bit for bit. With
+        ``rainflow`` the series τ̂ + α σ_H of every point is kept (m × N_z × rows × ny) and
+        counted at the end as before. Returns (τ_DV, rate, low); rate and low are None without
+        ``rainflow``."""
         sn, nz = self.woehler, self.z.size
         with event("stresses"):
             spectra = self.history_spectra(fields, body)
             macro = [self.macro_stress(f, body) for f in fields]
         m, rows, ny = len(fields), self.slab.nx_local, self.grid.ny
         plane = rows * ny
-        n = nz * plane
-        tau = np.empty(n)
-        series = np.empty((m, n)) if rainflow else None
+        stream = DangVanStream(m, nz * plane, alpha=self.alpha_dv, batch=DV_CHUNK,
+                               keep_series=rainflow)
         size = self.chunk_layers(m)
-        batch = DV_CHUNK          # the batches of one call on the whole history
         buf = np.empty(m * 6 * size * plane)
-        carry = np.empty((m, 6, min(batch, n)))     # the start of a straddling batch
-        lo, kept = 0, 0     # next batch starts at point lo; carry holds points lo … lo + kept
         for k0 in range(0, nz, size):
             k1 = min(nz, k0 + size)
             hist = buf[:m * 6 * (k1 - k0) * plane].reshape(m, 6, k1 - k0, rows, ny)
             with event("stresses"):
                 self.stress_history(spectra, macro, body, slice(k0, k1), out=hist)
-            flat = hist.reshape(m, 6, -1)                # points k0·plane … k1·plane
-            start, end = k0 * plane, k1 * plane
-            while lo < n:
-                hi = min(lo + batch, n)
-                if hi > end:                             # finish it with the next chunk
-                    a = max(lo, start)
-                    carry[:, :, a - lo:end - lo] = flat[:, :, a - start:]
-                    kept = end - lo
-                    break
-                if lo < start:
-                    carry[:, :, kept:hi - lo] = flat[:, :, :hi - start]
-                    part = carry[:, :, :hi - lo]
-                else:
-                    part = flat[:, :, lo - start:hi - start]
-                with event("dang_van"):
-                    dv = dang_van(part, alpha=self.alpha_dv, chunk=batch, keep_series=rainflow)
-                tau[lo:hi] = dv.tau_dv
-                if rainflow:
-                    series[:, lo:hi] = dv.series
-                lo, kept = hi, 0
+            with event("dang_van"):
+                stream.feed(hist.reshape(m, 6, -1))     # points k0·plane … k1·plane
+        with event("dang_van"):
+            dv = stream.result()
+        tau, series = dv.tau_dv, dv.series
         shape = self.slab.local_shape
         rate = low = None
         if rainflow:

@@ -234,3 +234,46 @@ def test_points_the_compiled_kernel_leaves_unconverged_go_to_the_reference():
     np.testing.assert_array_equal(out.tau_dv[stuck], ref.tau_dv[stuck])
     np.testing.assert_array_equal(out.series[:, stuck], ref.series[:, stuck])
     np.testing.assert_allclose(out.tau_dv, ref.tau_dv, rtol=1e-12)
+
+
+def _stream(h, pieces, **kw):
+    """DangVanStream over h (m, 6, n) fed in pieces of the sizes ``pieces`` (summing to n)."""
+    stream = dangvan.DangVanStream(h.shape[0], h.shape[2], **kw)
+    lo = 0
+    for k in pieces:
+        stream.feed(np.ascontiguousarray(h[:, :, lo:lo + k]))
+        lo += k
+    return stream.result()
+
+
+@pytest.mark.parametrize("kernel", ["numpy", pytest.param("numba", marks=needs_numba)])
+def test_a_stream_of_pieces_gives_one_call_on_the_whole_history(kernel):
+    """The streamed stresses' Dang Van (cycle._streamed_dang_van): pieces of any size, batches
+    straddling them (the NumPy path's 64-point batches over pieces of 50, 0, 90, 37 and 23
+    points), the numbers of one call on the whole history bit for bit, series included."""
+    h = np.random.default_rng(31).normal(size=(16, 6, 200)) * 1e8
+    whole = dang_van(h, kernel=kernel, chunk=64, keep_series=True)
+    for series in (True, False):
+        got = _stream(h, (50, 0, 90, 37, 23), batch=64, keep_series=series, kernel=kernel)
+        assert np.array_equal(got.tau_dv, whole.tau_dv)
+        assert np.array_equal(got.radius, whole.radius)
+        assert got.iterations == whole.iterations
+        assert (np.array_equal(got.series, whole.series) if series else got.series is None)
+    with pytest.raises(ValueError, match="150 of 200 points fed"):
+        _stream(h, (50, 100), kernel=kernel)
+    with pytest.raises(ValueError, match="250 points fed, 200 expected"):
+        dangvan.DangVanStream(16, 200, kernel=kernel).feed(np.zeros((16, 6, 250)))
+
+
+@needs_numba
+def test_a_stream_redoes_the_points_the_kernel_leaves_together_at_the_end():
+    """Points the compiled kernel leaves unconverged (here with no iteration allowed: all but
+    the two-point balls) are redone on the NumPy path in one call at the end, as one call on
+    the whole history does (dangvan._dang_van_compiled): the same numbers bit for bit."""
+    h = np.random.default_rng(7).normal(size=(12, 6, 90)) * 1e8
+    whole = dangvan._dang_van_compiled(dangvan.numba_kernel(), h, (90,), ALPHA_DV, 1e-12, True,
+                                       max_iter=0)
+    got = _stream(h, (40, 20, 30), keep_series=True, kernel="numba", max_iter=0)
+    assert np.array_equal(got.tau_dv, whole.tau_dv)
+    assert np.array_equal(got.series, whole.series)
+    assert got.iterations == whole.iterations > 0

@@ -42,8 +42,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["ALPHA_DV", "CHUNK", "DEFAULT_KERNEL", "DangVan", "dang_van", "deviator_vectors",
-           "enclosing_ball", "mesoscopic_shear", "numba_kernel"]
+__all__ = ["ALPHA_DV", "CHUNK", "DEFAULT_KERNEL", "DangVan", "DangVanStream", "dang_van",
+           "deviator_vectors", "enclosing_ball", "mesoscopic_shear", "numba_kernel"]
 
 #: α_DV = 3(1/√3 − ½): the Dang Van hydrostatic sensitivity (docs/model.md §4.3).
 ALPHA_DV = 3.0 * (1.0 / math.sqrt(3.0) - 0.5)
@@ -475,3 +475,115 @@ def _dang_van_compiled(compiled, flat, pts, alpha, tol, keep_series, max_iter=20
     return DangVan(tau_dv=tau.reshape(pts), radius=rad.reshape(pts),
                    iterations=int(iters.max(initial=0)),
                    series=series.reshape((m, *pts)) if keep_series else None)
+
+
+class DangVanStream:
+    """:func:`dang_van` of a history whose points arrive in consecutive pieces (the streamed
+    stresses, docs/performance.md "Streamed stresses"): :meth:`feed` each piece (m, 6, k) of
+    the points in order, then :meth:`result` gives the numbers of one
+    ``dang_van(history, alpha, tol, chunk=batch, keep_series, kernel)`` call on the whole
+    (m, 6, n) history, bit for bit.
+
+    The compiled kernel works point by point: each piece goes through it in place, as it comes,
+    and only the points it leaves unconverged (about one in millions) are kept, to be redone on
+    the NumPy path together at the end, as one call on the whole history does. The NumPy path
+    is fed the whole history's batches of ``batch`` consecutive points (its ``chunk``): a batch
+    that straddles two pieces is completed in a small carry buffer. (Until 2026-11-29 the
+    compiled path was fed those batches too: at 64² and 128² nearly every batch straddled two
+    layer chunks, and copying it into the carry took a fifth of the stage.) ``max_iter``: the
+    compiled kernel's enclosing-ball iterations (as :func:`enclosing_ball`'s)."""
+
+    def __init__(self, m: int, n: int, alpha: float = ALPHA_DV, tol: float = 1e-12,
+                 batch: int = CHUNK, keep_series: bool = False, kernel: str | None = None,
+                 max_iter: int = 2000):
+        kernel = DEFAULT_KERNEL if kernel is None else kernel
+        if kernel not in _KERNELS:
+            raise ValueError(f"DangVanStream: kernel must be one of {_KERNELS}, got {kernel!r}")
+        self.m, self.n, self.alpha, self.tol = int(m), int(n), float(alpha), float(tol)
+        self.batch, self.keep_series, self.kernel = int(batch), bool(keep_series), kernel
+        self.max_iter = int(max_iter)
+        self._compiled = numba_kernel() if kernel != "numpy" else None
+        if kernel == "numba" and self._compiled is None:
+            raise ImportError("DangVanStream: kernel='numba' needs Numba (python3-numba; "
+                              "docs/install.md)")
+        self.tau, self.radius = np.empty(self.n), np.empty(self.n)
+        self.series = np.empty((self.m, self.n)) if self.keep_series else None
+        self.most = 0
+        self._lo = 0                # points fed so far
+        self._kept = 0              # NumPy path: points of the open batch in the carry
+        self._carry = None
+        self._stuck: list[tuple[np.ndarray, np.ndarray]] = []    # (indices, their history)
+
+    def feed(self, piece: np.ndarray) -> None:
+        """The history (m, 6, k) of the next k points."""
+        if piece.ndim != 3 or piece.shape[:2] != (self.m, 6):
+            raise ValueError(f"DangVanStream.feed: a piece has shape ({self.m}, 6, k), got "
+                             f"{piece.shape}")
+        lo, hi = self._lo, self._lo + piece.shape[2]
+        if hi > self.n:
+            raise ValueError(f"DangVanStream.feed: {hi} points fed, {self.n} expected")
+        if self._compiled is not None:
+            self._feed_compiled(piece, lo, hi)
+        else:
+            self._feed_batches(piece, lo, hi)
+        self._lo = hi
+
+    def _feed_compiled(self, piece, lo, hi):
+        k = hi - lo
+        if not k:
+            return
+        iters = np.empty(k, dtype=np.int64)
+        series = np.empty((self.m, k) if self.keep_series else (1, 1))
+        self._compiled(piece, self.alpha, self.tol, self.max_iter, self.keep_series,
+                       self.tau[lo:hi], self.radius[lo:hi], series, iters)
+        if self.keep_series:
+            self.series[:, lo:hi] = series
+        stuck = np.flatnonzero(iters < 0)
+        if stuck.size:
+            self._stuck.append((lo + stuck, piece[:, :, stuck].copy()))
+        self.most = max(self.most, int(iters.max(initial=0)))
+
+    def _feed_batches(self, piece, lo, hi):
+        batch, start = self.batch, lo
+        if self._carry is None:
+            self._carry = np.empty((self.m, 6, min(batch, self.n)))
+        first = lo - self._kept                  # where the open batch starts
+        while first < hi:
+            end = min(first + batch, self.n)
+            if end > hi:                          # finish it with the next piece
+                self._carry[:, :, lo - first:hi - first] = piece[:, :, lo - start:]
+                self._kept = hi - first
+                return
+            if first < start:
+                self._carry[:, :, lo - first:end - first] = piece[:, :, :end - start]
+                part = self._carry[:, :, :end - first]
+            else:
+                part = piece[:, :, first - start:end - start]
+            self._store(first, end, dang_van(part, alpha=self.alpha, tol=self.tol, chunk=batch,
+                                             keep_series=self.keep_series, kernel="numpy"))
+            first = lo = end
+            self._kept = 0
+
+    def _store(self, lo, hi, dv: DangVan):
+        self.tau[lo:hi], self.radius[lo:hi] = dv.tau_dv, dv.radius
+        if self.keep_series:
+            self.series[:, lo:hi] = dv.series
+        self.most = max(self.most, dv.iterations)
+
+    def result(self) -> DangVan:
+        """τ_DV, radius, iterations (and the series) of every point, once all are fed."""
+        if self._lo != self.n:
+            raise ValueError(f"DangVanStream.result: {self._lo} of {self.n} points fed")
+        if self._stuck:          # the reference path for the few the kernel left, as one call
+            idx = np.concatenate([i for i, _ in self._stuck])
+            ref = dang_van(np.concatenate([h for _, h in self._stuck], axis=2),
+                           alpha=self.alpha, tol=self.tol, keep_series=self.keep_series,
+                           kernel="numpy")
+            self.tau[idx], self.radius[idx] = ref.tau_dv, ref.radius
+            if self.keep_series:
+                self.series[:, idx] = ref.series
+            # as _dang_van_compiled: the iterations of the stuck points are the reference's
+            self.most = max(self.most, ref.iterations)
+            self._stuck = []
+        return DangVan(tau_dv=self.tau, radius=self.radius, iterations=self.most,
+                       series=self.series)
