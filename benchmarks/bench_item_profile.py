@@ -7,6 +7,12 @@ own time.
 
     python benchmarks/bench_item_profile.py --position 5 --k-lub 5e-11 --n 64 --cycles-M 0.3
 
+``--scan`` instead of the profile: the mixed solves' load-fraction scans (docs/performance.md
+§3, "Where a rough item's time goes"): how many steps end at φ = 1, how many of their scans
+have a film balance f(φ) that is not falling through the trials, the smallest f(φ_k)/f(1) over
+their trials, and the dry solves' count, time and iterations: at no load (φ = 0), the loose
+trials, and the solves at the scene's tolerance.
+
 Timings, not tests: the profiler itself adds about a third to a contact-bound block.
 """
 
@@ -17,10 +23,13 @@ import cProfile
 import pstats
 import sys
 import time
+from collections import Counter
+from itertools import pairwise
 from pathlib import Path
 
 from bench_wear_convergence import item_run, reference_surfaces
 
+from micropit_hpc.lubrication import mixed
 from micropit_hpc.scene import load_scene
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -35,10 +44,14 @@ def main(argv=None) -> int:
     ap.add_argument("--cycles-M", type=float, default=0.3, help="the block's cycles [M]")
     ap.add_argument("--ref", type=int, default=256, help="grid of the surface realisation")
     ap.add_argument("--lines", type=int, default=40, help="profile lines per listing")
+    ap.add_argument("--scan", action="store_true",
+                    help="the load-fraction scans' statistics instead of the profile")
     a = ap.parse_args(argv)
     base = load_scene(a.scene)
     run = item_run(base, a.position, a.k_lub, a.n, max(a.cycles_M, base.life.block / 1e6),
                    reference_surfaces(base, a.ref))
+    if a.scan:
+        return scan_statistics(run, a.cycles_M * 1e6)
     prof = cProfile.Profile()
     t0 = time.perf_counter()
     prof.enable()
@@ -50,6 +63,49 @@ def main(argv=None) -> int:
           f"{sum(rec.wear_mean)!r} m")
     for key in ("cumulative", "tottime"):
         pstats.Stats(prof, stream=sys.stdout).sort_stats(key).print_stats(a.lines)
+    return 0
+
+
+def scan_statistics(run, cycles: float) -> int:
+    """One block of ``run`` with ``MixedLubrication.solve`` and the dry solves it calls
+    wrapped: the statistics of ``--scan`` (module docstring)."""
+    orig_solve, orig_dry = mixed.MixedLubrication.solve, mixed.solve_dry_contact
+    count, wall, iters = Counter(), Counter(), Counter()
+    ratios = []
+
+    def dry(*args, **kw):
+        kind = ("no load" if args[2] == 0.0 else
+                "loose trial" if kw.get("tol", 0.0) > base_tol else "scene's tolerance")
+        t = time.perf_counter()
+        sol = orig_dry(*args, **kw)
+        count[kind] += 1
+        wall[kind] += time.perf_counter() - t
+        iters[kind] += sol.iterations
+        return sol
+
+    def solve(self, *args, **kw):
+        sol = orig_solve(self, *args, **kw)
+        f = [v for phi, level, v in self.last_scan if level == 0 and phi in mixed.PHI_SCAN]
+        count["step"] += 1
+        if sol.phi == 1.0 and f:
+            count["phi = 1"] += 1
+            count["not falling"] += any(a <= b for a, b in pairwise(f))
+            ratios.append(min(f) / f[-1])
+        return sol
+
+    base_tol = run.cycle.scene.lubrication.tol
+    mixed.MixedLubrication.solve, mixed.solve_dry_contact = solve, dry
+    try:
+        run.run_block(cycles)
+    finally:
+        mixed.MixedLubrication.solve, mixed.solve_dry_contact = orig_solve, orig_dry
+    print(f"steps {count['step']}, at phi = 1 {count['phi = 1']}, of these with f(phi) not "
+          f"falling through the trials {count['not falling']}; smallest f(phi_k)/f(1) "
+          f"{min(ratios) if ratios else float('nan'):.4f}")
+    for kind in ("no load", "loose trial", "scene's tolerance"):
+        n = max(count[kind], 1)
+        print(f"dry solves at the {kind}: {count[kind]}, {1e3 * wall[kind] / n:.3f} ms and "
+              f"{iters[kind] / n:.2f} iterations each")
     return 0
 
 
