@@ -456,25 +456,18 @@ def dang_van(history: np.ndarray, alpha: float = ALPHA_DV, tol: float = 1e-12,
 
 
 def _dang_van_compiled(compiled, flat, pts, alpha, tol, keep_series, max_iter=2000) -> DangVan:
-    """dang_van on the compiled kernel (enclosing_ball's defaults: max_iter, correct_every=1)."""
+    """dang_van on the compiled kernel ``compiled`` (enclosing_ball's defaults: max_iter,
+    correct_every=1): the whole history as one piece of a :class:`DangVanStream`, which reads
+    it in place (a strided slice too: +9 % in the kernel, where its copy cost +14 %) and
+    redoes the points the kernel leaves unconverged on the reference path."""
     m, _, n = flat.shape
-    tau, rad = np.empty(n), np.empty(n)
-    iters = np.empty(n, dtype=np.int64)
-    series = np.empty((m, n) if keep_series else (1, 1))
-    if n:   # a strided slice read in place: +9 % in the kernel, where its copy cost +14 %
-        compiled(flat, float(alpha), float(tol), int(max_iter),
-                 bool(keep_series), tau, rad, series, iters)
-    stuck = np.flatnonzero(iters < 0)
-    if stuck.size:   # the reference path for the few it left (it raises if they fail there too)
-        ref = dang_van(flat[:, :, stuck], alpha=alpha, tol=tol, keep_series=keep_series,
-                       kernel="numpy")
-        tau[stuck], rad[stuck] = ref.tau_dv, ref.radius
-        if keep_series:
-            series[:, stuck] = ref.series
-        iters[stuck] = ref.iterations
-    return DangVan(tau_dv=tau.reshape(pts), radius=rad.reshape(pts),
-                   iterations=int(iters.max(initial=0)),
-                   series=series.reshape((m, *pts)) if keep_series else None)
+    stream = DangVanStream(m, n, alpha, tol, keep_series=keep_series, kernel="numba",
+                           max_iter=max_iter, compiled=compiled)
+    stream.feed(flat)
+    dv = stream.result()
+    return DangVan(tau_dv=dv.tau_dv.reshape(pts), radius=dv.radius.reshape(pts),
+                   iterations=dv.iterations,
+                   series=dv.series.reshape((m, *pts)) if keep_series else None)
 
 
 class DangVanStream:
@@ -491,18 +484,20 @@ class DangVanStream:
     that straddles two pieces is completed in a small carry buffer. (Until 2026-11-29 the
     compiled path was fed those batches too: at 64² and 128² nearly every batch straddled two
     layer chunks, and copying it into the carry took a fifth of the stage.) ``max_iter``: the
-    compiled kernel's enclosing-ball iterations (as :func:`enclosing_ball`'s)."""
+    compiled kernel's enclosing-ball iterations (as :func:`enclosing_ball`'s); ``compiled``:
+    the compiled kernel to use (None: :func:`numba_kernel`'s, where ``kernel`` allows it)."""
 
     def __init__(self, m: int, n: int, alpha: float = ALPHA_DV, tol: float = 1e-12,
                  batch: int = CHUNK, keep_series: bool = False, kernel: str | None = None,
-                 max_iter: int = 2000):
+                 max_iter: int = 2000, compiled=None):
         kernel = DEFAULT_KERNEL if kernel is None else kernel
         if kernel not in _KERNELS:
             raise ValueError(f"DangVanStream: kernel must be one of {_KERNELS}, got {kernel!r}")
         self.m, self.n, self.alpha, self.tol = int(m), int(n), float(alpha), float(tol)
         self.batch, self.keep_series, self.kernel = int(batch), bool(keep_series), kernel
         self.max_iter = int(max_iter)
-        self._compiled = numba_kernel() if kernel != "numpy" else None
+        self._compiled = (None if kernel == "numpy" else
+                          compiled if compiled is not None else numba_kernel())
         if kernel == "numba" and self._compiled is None:
             raise ImportError("DangVanStream: kernel='numba' needs Numba (python3-numba; "
                               "docs/install.md)")
