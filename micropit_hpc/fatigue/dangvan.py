@@ -577,7 +577,7 @@ class DangVanStream:
             self.tau[idx], self.radius[idx] = ref.tau_dv, ref.radius
             if self.keep_series:
                 self.series[:, idx] = ref.series
-            # as _dang_van_compiled: the iterations of the stuck points are the reference's
+            # the reference's iterations count for them (the kernel marked them negative)
             self.most = max(self.most, ref.iterations)
             self._stuck = []
         return DangVan(tau_dv=self.tau, radius=self.radius, iterations=self.most,
