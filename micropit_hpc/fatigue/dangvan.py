@@ -494,7 +494,7 @@ class DangVanStream:
         if kernel not in _KERNELS:
             raise ValueError(f"DangVanStream: kernel must be one of {_KERNELS}, got {kernel!r}")
         self.m, self.n, self.alpha, self.tol = int(m), int(n), float(alpha), float(tol)
-        self.batch, self.keep_series, self.kernel = int(batch), bool(keep_series), kernel
+        self.batch, self.keep_series = int(batch), bool(keep_series)
         self.max_iter = int(max_iter)
         self._compiled = (None if kernel == "numpy" else
                           compiled if compiled is not None else numba_kernel())
