@@ -168,7 +168,16 @@ def main() -> None:
     ap.add_argument("--early-update-iterations", type=int, default=None,
                     help="'after' with this dry.EARLY_UPDATE_ITERATIONS (0: no early updates "
                          "of the yielded set, the search as before commit 67a2396)")
+    ap.add_argument("--cold-rungs", type=int, default=None,
+                    help="'after' with this dry.COLD_RUNGS (the inexact tolerances of a "
+                         "solve started from a coarser grid, before tol)")
+    ap.add_argument("--early-every-rung", action="store_true",
+                    help="'after' with dry.EARLY_EVERY_RUNG: early updates in every rung")
     args = ap.parse_args()
+    if args.cold_rungs is not None:
+        dry.COLD_RUNGS = args.cold_rungs
+    if args.early_every_rung:
+        dry.EARLY_EVERY_RUNG = True
     if args.unscaled:
         dry.TOLERANCE_POINTS = 0
     if args.coarse_tol is not None:
@@ -180,7 +189,8 @@ def main() -> None:
     print(f"cold dry contact solves, {args.surface} surface, {datetime.date.today()}, commit "
           f"{source_commit()}, one core, median of {args.repeat}\n")
     print(f"dry.COARSEST = {dry.COARSEST}, dry.COARSE_TOL = {dry.COARSE_TOL}, "
-          f"dry.EARLY_UPDATE_ITERATIONS = {dry.EARLY_UPDATE_ITERATIONS} ('after')\n")
+          f"dry.EARLY_UPDATE_ITERATIONS = {dry.EARLY_UPDATE_ITERATIONS}, dry.COLD_RUNGS = "
+          f"{dry.COLD_RUNGS}, dry.EARLY_EVERY_RUNG = {dry.EARLY_EVERY_RUNG} ('after')\n")
     print("| grid | solver | tol | iterations (fine) | fine-equivalent | coarse levels | "
           "time [s] | ms per fine it. | pressure error | contact area | plastic |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")

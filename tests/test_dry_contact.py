@@ -256,6 +256,36 @@ def test_early_updates_of_the_yielded_set_find_the_same_answer_in_fewer_iteratio
     assert early.iterations < 0.6 * full.iterations
 
 
+def test_a_rung_between_the_loose_and_the_full_tolerance_saves_iterations(monkeypatch):
+    """dry.COLD_RUNGS: a cold solve started from the coarse-to-fine start's pressure seeks its
+    yielded set at √tol, then at tol^(3/4), then at tol, where one rung went from √tol
+    straight to tol. The same yielded set and pressures as close to a tight reference, in
+    fewer iterations (0.85 of them over three 256² surfaces, 9–14 % of the window at the cap,
+    at the scene's tolerance)."""
+    from micropit_hpc.lubrication import dry
+
+    ladder, single = 0, 0
+    for seed in (1, 2, 3):
+        g, gap0 = rough_gap(seed, 256)
+        hs = ElasticHalfSpaces(g, E_PRIME)
+        P = 1.0e9
+        p_lim = 0.45 * solve_dry_contact(gap0, hs, P, tol=TOL, max_iter=MAX_ITER).pressure.max()
+        ref = solve_dry_contact(gap0, hs, P, p_lim, tol=1e-12, max_iter=MAX_ITER).pressure
+        monkeypatch.setattr(dry, "COLD_RUNGS", 2)
+        two = solve_dry_contact(gap0, hs, P, p_lim, tol=TOL, max_iter=MAX_ITER)
+        monkeypatch.setattr(dry, "COLD_RUNGS", 1)
+        one = solve_dry_contact(gap0, hs, P, p_lim, tol=TOL, max_iter=MAX_ITER)
+        assert np.array_equal(two.pressure >= p_lim, one.pressure >= p_lim)
+        assert np.array_equal(two.pressure >= p_lim, ref >= p_lim)
+        err_two = np.linalg.norm(two.pressure - ref) / np.linalg.norm(ref)
+        err_one = np.linalg.norm(one.pressure - ref) / np.linalg.norm(ref)
+        assert err_two <= max(2 * err_one, 1e-7)
+        assert two.pressure.max() <= p_lim
+        assert two.pressure.mean() == pytest.approx(P, rel=1e-12)
+        ladder, single = ladder + two.iterations, single + one.iterations
+    assert ladder < 0.95 * single
+
+
 def test_a_warm_solve_makes_no_early_updates(monkeypatch):
     """A warm start (p_init given) is already near its yielded set: its search keeps the full
     inexact solves, so its answer does not depend on dry.EARLY_UPDATE_ITERATIONS at all."""

@@ -147,6 +147,17 @@ class ElasticHalfSpaces:
 #: Updates of the yielded set made with inexact (√tol) elastic solves before the search goes on
 #: at the full tolerance (:func:`solve_dry_contact`); 0: every solve at the full tolerance.
 LOOSE_UPDATES = 8
+#: The inexact search's tolerances ("rungs") in a cold solve started from a coarser grid's
+#: pressure (the coarse-to-fine start, below), loosest first: tol^(1/2 + j/(2R)) for
+#: j = 0 … R−1 with R = COLD_RUNGS, then tol itself (:func:`loose_rungs`); every other solve
+#: has one, √tol (at 64², with no coarser grid, a second rung only added iterations). From
+#: such a start's √tol the last rung
+#: to tol took 81 iterations on the paper gear's 2048² step, most of them converging
+#: pressures of a set that was about to change; with a rung at tol^(3/4) between, 52
+#: (docs/performance.md §11, "Rungs between √tol and tol"). 1: √tol alone, then tol.
+COLD_RUNGS = 2
+#: Whether the early updates (below) go on in the rungs after the first.
+EARLY_EVERY_RUNG = True
 
 #: Whether the CG direction restarts from steepest descent whenever points enter the contact
 #: (Polonsky & Keer 1999, δ = 0 after a change of the contact set). False: the directions stay
@@ -354,6 +365,15 @@ TOLERANCE_POINTS = 256
 #: How the threshold on ε shrinks with the grid beyond :data:`TOLERANCE_POINTS`: (n₀/n)^a,
 #: a measured (docs/performance.md, "Contact iterations that do not grow with the grid").
 TOLERANCE_EXPONENT = 0.4
+
+
+def loose_rungs(tol: float, rungs: int | None = None) -> list[float]:
+    """The inexact tolerances of the yielded set's search before ``tol``, loosest first:
+    tol^(1/2 + j/(2R)), j = 0 … R−1 (R = ``rungs``, None: :data:`COLD_RUNGS`), those above
+    ``tol`` only (none for tol ≥ 1)."""
+    R = COLD_RUNGS if rungs is None else int(rungs)
+    out = [tol ** (0.5 + j / (2 * R)) for j in range(max(R, 0))]
+    return [t for t in out if t > tol]
 
 
 def residual_threshold(tol: float, grid: Grid) -> float:
@@ -598,10 +618,16 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     # A cold solve first updates the set every EARLY_UPDATE_ITERATIONS iterations, until an
     # update leaves it unchanged (or after EARLY_UPDATES_MAX of them).
     tol_given, tol = tol, residual_threshold(tol, grid)
-    phase_tol = (max(tol, math.sqrt(tol)) if math.isfinite(p_lim) and LOOSE_UPDATES > 0
-                 else tol)
+    # a cold solve started from a coarser grid's pressure (its set nearly the answer, its
+    # residual soon within √tol) climbs COLD_RUNGS rungs to tol; every other solve one
+    prolongated = early_updates and p_init is not None
+    rungs = (loose_rungs(tol, None if prolongated else 1)
+             if math.isfinite(p_lim) and LOOSE_UPDATES > 0 else [])
+    phase_tol = rungs.pop(0) if rungs else tol
+    first_rung, rung_updates = True, 0
     while used < max_iter:
         updates += 1
+        rung_updates += 1
         (n_pl,) = group.sums(np.count_nonzero(plastic))
         n_pl = int(n_pl)
         P_el = P - p_lim * n_pl / N if n_pl else P
@@ -617,7 +643,7 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         excluded = plastic if n_pl else None
         if held is not None:
             excluded = held if excluded is None else excluded | held
-        capped = early_left > 0 and phase_tol > tol
+        capped = early_left > 0 and phase_tol > tol and (first_rung or EARLY_EVERY_RUNG)
         budget = min(max_iter - used, EARLY_UPDATE_ITERATIONS) if capped else max_iter - used
         p, g, it, error = _polonsky_keer(g_fixed, hs, P_el, scale, phase_tol, budget,
                                          p, excluded, N, group, stages)
@@ -647,6 +673,7 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         n_grow, n_release = group.sums(np.count_nonzero(grow), np.count_nonzero(release))
         if early:       # an early update: not counted in LOOSE_UPDATES
             updates -= 1
+            rung_updates -= 1
             early_left -= 1
             if n_grow or n_release:
                 plastic = (plastic & ~release) | grow
@@ -655,9 +682,11 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
             p = p_total
             np.minimum(p, p_lim, out=p)
             continue
-        if phase_tol > tol and (it <= 1 or updates >= LOOSE_UPDATES
+        if phase_tol > tol and (it <= 1 or rung_updates >= LOOSE_UPDATES
                                 or not (n_grow or n_release)):
-            phase_tol = tol         # from here on the exact search (or its confirmation)
+            # the next rung; after the last, the exact search (or its confirmation)
+            phase_tol = rungs.pop(0) if rungs else tol
+            first_rung, rung_updates = False, 0
             if not (n_grow or n_release):
                 p = p_total
                 continue
