@@ -286,6 +286,25 @@ def test_a_rung_between_the_loose_and_the_full_tolerance_saves_iterations(monkey
     assert ladder < 0.95 * single
 
 
+def test_an_elastic_contact_climbs_no_second_rung(monkeypatch):
+    """With no point at the cap there is no yielded set to seek: a cold solve goes from √tol
+    straight to tol whatever dry.COLD_RUNGS, bit for bit (a second rung only split its CG,
+    and the restarted CG, from a pressure already near tol, moved the answer by 2e-12 between
+    one rank and two where one CG moved it by 4e-14: tests/test_contact_mpi.py)."""
+    from micropit_hpc.lubrication import dry
+
+    g, gap0 = rough_gap(3, 256)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    P = 1.0e9
+    p_lim = 2.0 * solve_dry_contact(gap0, hs, P, tol=TOL, max_iter=MAX_ITER).pressure.max()
+    two = solve_dry_contact(gap0, hs, P, p_lim, tol=TOL, max_iter=MAX_ITER)
+    monkeypatch.setattr(dry, "COLD_RUNGS", 1)
+    one = solve_dry_contact(gap0, hs, P, p_lim, tol=TOL, max_iter=MAX_ITER)
+    assert two.coarse_iterations > 0 and two.pressure.max() < p_lim
+    assert two.iterations == one.iterations
+    assert np.array_equal(two.pressure, one.pressure)
+
+
 def test_a_warm_solve_makes_no_early_updates(monkeypatch):
     """A warm start (p_init given) is already near its yielded set: its search keeps the full
     inexact solves, so its answer does not depend on dry.EARLY_UPDATE_ITERATIONS at all."""

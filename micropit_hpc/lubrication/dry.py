@@ -149,12 +149,12 @@ class ElasticHalfSpaces:
 LOOSE_UPDATES = 8
 #: The inexact search's tolerances ("rungs") in a cold solve started from a coarser grid's
 #: pressure (the coarse-to-fine start, below), loosest first: tol^(1/2 + j/(2R)) for
-#: j = 0 … R−1 with R = COLD_RUNGS, then tol itself (:func:`loose_rungs`); every other solve
-#: has one, √tol (at 64², with no coarser grid, a second rung only added iterations). From
-#: such a start's √tol the last rung
-#: to tol took 81 iterations on the paper gear's 2048² step, most of them converging
-#: pressures of a set that was about to change; with a rung at tol^(3/4) between, 52
-#: (docs/performance.md §11, "Rungs between √tol and tol"). 1: √tol alone, then tol.
+#: j = 0 … R−1 with R = COLD_RUNGS, then tol itself (:func:`loose_rungs`). Every other solve
+#: has one rung, √tol (at 64², with no coarser grid, a second one only added iterations), and
+#: so does a contact with no point at the cap (no set to seek). From such a start's √tol the
+#: search at tol spent most of its iterations converging pressures of a set that was about to
+#: change; the rung between finds those changes at a lower cost (measured on the paper gear
+#: at 256²–2048²: docs/performance.md §11, "Rungs between √tol and tol"). 1: √tol alone.
 COLD_RUNGS = 2
 #: Whether the early updates (below) go on in the rungs after the first.
 EARLY_EVERY_RUNG = True
@@ -684,8 +684,10 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
             continue
         if phase_tol > tol and (it <= 1 or rung_updates >= LOOSE_UPDATES
                                 or not (n_grow or n_release)):
-            # the next rung; after the last, the exact search (or its confirmation)
-            phase_tol = rungs.pop(0) if rungs else tol
+            # the next rung; after the last, or with no yielded point to seek (an elastic
+            # contact: the rung would only split its solve), the exact search (or its
+            # confirmation)
+            phase_tol = rungs.pop(0) if rungs and (n_pl or n_grow) else tol
             first_rung, rung_updates = False, 0
             if not (n_grow or n_release):
                 p = p_total
