@@ -145,7 +145,8 @@ class ElasticHalfSpaces:
 
 
 #: Updates of the yielded set made with inexact (√tol) elastic solves before the search goes on
-#: at the full tolerance (:func:`solve_dry_contact`); 0: every solve at the full tolerance.
+#: at the full tolerance (:func:`solve_dry_contact`; at most this many per rung, below); 0:
+#: every solve at the full tolerance.
 LOOSE_UPDATES = 8
 #: The inexact search's tolerances ("rungs") in a cold solve started from a coarser grid's
 #: pressure (the coarse-to-fine start, below), loosest first: tol^(1/2 + j/(2R)) for
@@ -516,7 +517,9 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     points at p_lim are held at the cap, the elastic problem is solved on the rest, points whose
     elastic pressure exceeds the cap join the set and points of the set whose gap opens (by
     more than the residual ε·rms(g0 − mean g0)) leave it, until the set no longer changes.
-    ``kernel``: the implementation of the iteration's elementwise stages
+    The set is first sought with inexact solves, at √tol (and, in a solve started from a
+    coarser grid's pressure with points at the cap, then at tol^(3/4): :data:`COLD_RUNGS`),
+    and confirmed at tol. ``kernel``: the implementation of the iteration's elementwise stages
     (:func:`iteration_stages`; None: :data:`DEFAULT_KERNEL`); the compiled and the NumPy stages
     agree to round-off. ``p_init`` warm-starts the iteration (e.g. the previous time step's
     pressure); ``max_iter`` bounds the total number of CG steps. ``tol`` and
@@ -617,9 +620,10 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     # or after LOOSE_UPDATES updates. The answer has to meet the same conditions at tol.
     # A cold solve first updates the set every EARLY_UPDATE_ITERATIONS iterations, until an
     # update leaves it unchanged (or after EARLY_UPDATES_MAX of them).
+    # A cold solve started from a coarser grid's pressure (its set nearly the answer, its
+    # residual soon within √tol) climbs COLD_RUNGS such rungs, √tol, tol^(3/4), … to tol, each
+    # left as √tol is (LOOSE_UPDATES counted per rung); every other solve one.
     tol_given, tol = tol, residual_threshold(tol, grid)
-    # a cold solve started from a coarser grid's pressure (its set nearly the answer, its
-    # residual soon within √tol) climbs COLD_RUNGS rungs to tol; every other solve one
     prolongated = early_updates and p_init is not None
     rungs = (loose_rungs(tol, None if prolongated else 1)
              if math.isfinite(p_lim) and LOOSE_UPDATES > 0 else [])
