@@ -171,13 +171,14 @@ def main() -> None:
     ap.add_argument("--cold-rungs", type=int, default=None,
                     help="'after' with this dry.COLD_RUNGS (the inexact tolerances of a "
                          "solve started from a coarser grid, before tol)")
-    ap.add_argument("--early-every-rung", action="store_true",
-                    help="'after' with dry.EARLY_EVERY_RUNG: early updates in every rung")
+    ap.add_argument("--no-early-every-rung", action="store_true",
+                    help="'after' with dry.EARLY_EVERY_RUNG = False: early updates in the "
+                         "first rung only")
     args = ap.parse_args()
     if args.cold_rungs is not None:
         dry.COLD_RUNGS = args.cold_rungs
-    if args.early_every_rung:
-        dry.EARLY_EVERY_RUNG = True
+    if args.no_early_every_rung:
+        dry.EARLY_EVERY_RUNG = False
     if args.unscaled:
         dry.TOLERANCE_POINTS = 0
     if args.coarse_tol is not None:
