@@ -11,9 +11,15 @@ of a cycle's time steps; "slabs", each step split over the ranks' x rows), then
 
 with the wall time of each (rank 0's clock, after a barrier) and the peak resident memory of
 every rank (``ru_maxrss``, the high-water mark of the process so far; the sizes run in
-increasing order, so each line is that size's peak).
+increasing order, so each line is that size's peak). With ``--stages`` the cycle's wall time is
+also split per rank into its stages (wall clocks around the cycle's own methods,
+:class:`StageClock`): the contact of the rank's steps (``_contact_steps``, its broadcast
+included), the stress history (the steps' spectra and the history chunks), the rest of the
+streamed Dang Van (the kernel and its batching), and the remainder (macro Dang Van, damage and
+wear rates).
 
     mpirun -n 2 python benchmarks/bench_big_window.py --sizes 512 1024 --cycle 512
+    mpirun -n 2 python benchmarks/bench_big_window.py --sizes 256 --cycle 256 --stages
     mpirun -n 2 python benchmarks/bench_big_window.py --sizes 1024 --parallel slabs
     python benchmarks/bench_big_window.py --sizes 512 1024 2048
 
@@ -46,6 +52,37 @@ def peak_mib() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
+class StageClock:
+    """Wall clocks around methods of one object: ``wrap(obj, name, stage)`` replaces the bound
+    method ``obj.name`` by one that adds its wall time to ``seconds[stage]`` (nested stages
+    count in both; the caller subtracts)."""
+
+    def __init__(self):
+        self.seconds: dict[str, float] = {}
+
+    def wrap(self, obj, name: str, stage: str) -> None:
+        inner = getattr(obj, name)
+        self.seconds.setdefault(stage, 0.0)
+
+        def timed(*args, **kwargs):
+            t0 = time.perf_counter()
+            try:
+                return inner(*args, **kwargs)
+            finally:
+                self.seconds[stage] += time.perf_counter() - t0
+        setattr(obj, name, timed)
+
+
+def cycle_stages(cycle: PositionCycle) -> StageClock:
+    """A :class:`StageClock` on ``cycle``'s stages (module docstring, ``--stages``)."""
+    clock = StageClock()
+    clock.wrap(cycle, "_contact_steps", "contact")
+    clock.wrap(cycle, "_streamed_dang_van", "streamed")
+    clock.wrap(cycle, "history_spectra", "stresses")
+    clock.wrap(cycle, "stress_history", "stresses")
+    return clock
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--scene", default=str(ROOT / "scenes" / "gear_z23_2048.toml"))
@@ -56,6 +93,8 @@ def main() -> int:
     ap.add_argument("--steps", type=int, default=None, help="time steps (default the scene's)")
     ap.add_argument("--parallel", choices=("auto", "steps", "slabs"), default="auto",
                     help="how the ranks share the contact (cycle.contact_parallel)")
+    ap.add_argument("--stages", action="store_true",
+                    help="split each cycle's wall time into stages per rank (StageClock)")
     ap.add_argument("--csv", default=None)
     args = ap.parse_args()
     comm = world()
@@ -84,11 +123,20 @@ def main() -> int:
         t_stress = time.perf_counter() - t0
         del fields
         t_cycle = float("nan")
+        stages = None
         if n in args.cycle:
+            clock = cycle_stages(cycle) if args.stages else None
             t0 = time.perf_counter()
             cycle.evaluate(cycle.surfaces)
+            t_rank = time.perf_counter() - t0
             comm.Barrier()
             t_cycle = time.perf_counter() - t0
+            if clock is not None:
+                sec = clock.seconds
+                mine = {"cycle": t_rank, "contact": sec["contact"], "stresses": sec["stresses"],
+                        "dang_van": sec["streamed"] - sec["stresses"]}
+                mine["rest"] = t_rank - mine["contact"] - sec["streamed"]
+                stages = comm.gather(mine)
         peaks = comm.allgather(peak_mib())
         row = {"n": n, "ranks": comm.size, "contact": cycle.contact_parallel,
                "level": cycle.level, "steps": cycle.steps,
@@ -99,6 +147,9 @@ def main() -> int:
         rows.append(row)
         if comm.rank == 0:
             print(" ".join(f"{k}={v}" for k, v in row.items()), flush=True)
+            for r, st in enumerate(stages or []):
+                print(f"#   rank {r}: " + ", ".join(f"{k} {v:.1f} s" for k, v in st.items()),
+                      flush=True)
         del cycle
     if comm.rank == 0:
         out = Path(args.csv or ROOT / "benchmarks" / "results" / f"big_window_{comm.size}r.csv")
