@@ -10,8 +10,10 @@ one depth layer of the stresses, each beside the bare time of the transforms it 
   layer (median); floor: one execute of the batch-6 inverse plan (six inverse transforms).
 
 Each kernel is timed with the compiled stages (Numba, where importable) and with the NumPy
-reference. One core; FFTW_ESTIMATE unless ``MICROPIT_FFTW_PLANNER`` says otherwise. Prints a
-markdown table with the date and the commit (docs/performance.md §10); timings, not tests.
+reference. One core; the FFT plans as the code makes them (``MICROPIT_FFTW_PLANNER``,
+default ``auto``: this machine's measured plans where its wisdom file holds the size,
+FFTW_ESTIMATE otherwise; the header says which each size got). Prints a markdown table with
+the date and the commit (docs/performance.md §10); timings, not tests.
 
     .venv/bin/python benchmarks/bench_kernels.py [--sizes 128 256 512] [--repeat 5]
 """
@@ -119,9 +121,14 @@ def main(argv=None) -> None:
     kernels = ["numpy"]
     if compiled.compiled_module("lubrication._dry_numba") is not None:
         kernels.insert(0, "numba")
+    measured = [n for n in args.sizes if rfft_plan((n, n)).from_wisdom
+                and rfft_plan((n, n), batch=6).from_wisdom]
+    others = [n for n in args.sizes if n not in measured]
+    plans = "; ".join(part for part in (
+        "measured plans (wisdom) at " + ", ".join(f"{n}²" for n in measured) if measured else "",
+        f"{planner_flag()} at " + ", ".join(f"{n}²" for n in others) if others else "") if part)
     print(f"FFT kernels against their floor, one core, median of {args.repeat} — "
-          f"{datetime.date.today().isoformat()}, commit {source_commit()}, "
-          f"FFTW planner {planner_flag()}")
+          f"{datetime.date.today().isoformat()}, commit {source_commit()}, FFTW {plans}")
     print()
     print("| kernel | grid | stages | iterations / layers | ms per iteration / layer "
           "| floor [ms] | ratio |")
