@@ -28,7 +28,11 @@ two convolutions as one of the solver's, plus the load's bisection. For each siz
 solver's cold solve as it is (iterations over all levels, the fine grid's in brackets, the
 fine-equivalent count of bench_multilevel.py), the solver on one level (``coarsest=0``) and
 the box CG, both from uniform pressure, each with its relative L2 pressure error against
-bench_multilevel's tight reference. Prints a markdown table; no timings.
+bench_multilevel's tight reference. Prints a markdown table; no timings. With ``--steps N``
+instead: every time step of a gear position at N², cold and warm, iterations summed
+(:func:`step_totals`).
+
+    .venv/bin/python benchmarks/bench_box_cg.py --steps 64 --position 3
 """
 
 from __future__ import annotations
@@ -82,13 +86,19 @@ def shift_to_load(q: np.ndarray, movable: np.ndarray, target: float,
     return out
 
 
-def box_cg(gap0, hs, P: float, p_lim: float, tol: float, max_iter: int = 20000):
-    """The box-constrained CG of the module docstring from uniform pressure; returns
-    (pressure, iterations)."""
+def box_cg(gap0, hs, P: float, p_lim: float, tol: float, max_iter: int = 20000,
+           p_init: np.ndarray | None = None):
+    """The box-constrained CG of the module docstring from ``p_init`` (None: uniform
+    pressure; else clipped to the bounds and shifted to the load); returns (pressure,
+    iterations)."""
     N = gap0.size
     scale = float(gap0.std())
     thr = dry.residual_threshold(tol, hs.grid)
     p = np.full_like(gap0, P)
+    if p_init is not None:
+        q = np.clip(p_init, 0.0, p_lim)
+        start = shift_to_load(q, (q > 0.0) & (q < p_lim), P * N, p_lim)
+        p = start if start is not None else shift_to_load(q, q >= 0.0, P * N, p_lim)
     t = np.zeros_like(gap0)
     G_old, conjugate = 1.0, False
     for it in range(1, max_iter + 1):
@@ -135,6 +145,73 @@ def box_cg(gap0, hs, P: float, p_lim: float, tol: float, max_iter: int = 20000):
     raise RuntimeError(f"box CG: no convergence in {max_iter} iterations")
 
 
+def box_cg_levels(gap0, hs, P: float, p_lim: float, tol: float, coarsest: int = 64,
+                  coarse_tol: float = 1e-4):
+    """:func:`box_cg` after the solver's coarse-to-fine start (``dry._coarse_start``'s
+    scheme: the gap restricted by full weighting down to ≥ ``coarsest`` points per side, each
+    level solved to max(tol, ``coarse_tol``) from the prolongated pressure of the level below,
+    the coarsest from uniform pressure); returns (pressure, fine iterations, fine-equivalent
+    iterations)."""
+    levels = dry.coarse_levels(hs.grid, coarsest)
+    gaps = [gap0]
+    for _ in range(levels):
+        gaps.append(dry.restrict(gaps[-1]))
+    n = gap0.shape[0]
+    p, equivalent = None, 0.0
+    for level in range(levels, 0, -1):
+        g = gaps[level]
+        grid = dry.Grid(g.shape[0], g.shape[1], hs.grid.lx, hs.grid.ly)
+        pc, it = box_cg(g, dry.ElasticHalfSpaces(grid, hs.E_prime), P, p_lim,
+                        max(tol, coarse_tol), p_init=p)
+        equivalent += it * (g.shape[0] / n) ** 2
+        p = dry.prolong(pc)
+    p, it = box_cg(gap0, hs, P, p_lim, tol, p_init=p)
+    return p, it, equivalent + it
+
+
+def step_totals(n: int, position: int, tol: float, moved_rms: float) -> dict:
+    """Iterations summed over every time step of the paper gear's ``position`` at n² (the dry
+    solve at each step's mean pressure): each cold, and each warm from the same step's
+    answer after its gap moved by a smooth random field of RMS ``moved_rms`` [m] (a
+    Gaussian surface of bench_contact's correlation lengths, one seed per step: what a warm
+    start meets in a life, the surfaces worn a little between two evaluations), by the solver
+    and by the box CG; with the largest relative L2 difference between the two answers."""
+    from dataclasses import replace
+
+    from micropit_hpc.cycle import PositionCycle
+    from micropit_hpc.plan import make_plan
+    from micropit_hpc.scene import load_scene
+    from micropit_hpc.surfaces import gaussian_surface
+
+    base = load_scene(str(Path(__file__).resolve().parents[1] / "scenes" / "paper_gear_z23.toml"))
+    scene = replace(base, window=replace(base.window, nx=n, ny=None))
+    plan = make_plan(scene, positions=[position], life=False)
+    cycle = PositionCycle(plan.study, position, window=plan.window)
+    hs = dry.ElasticHalfSpaces(cycle.grid, cycle.study.E_prime)
+    out = {"steps": 0, "solver cold": 0, "box CG cold": 0, "solver warm": 0, "box CG warm": 0,
+           "largest difference": 0.0}
+    for j in range(cycle.steps):
+        gap0 = cycle.rough_gap(j)
+        P = cycle.mean_pressure(cycle.centre(cycle.time(j)))
+        if P <= 0.0:
+            continue
+        moved = gap0 + gaussian_surface(cycle.grid, moved_rms, 30e-6, 300e-6, seed=j).heights
+        cold = dry.solve_dry_contact(gap0, hs, P, cycle.p_lim, tol=tol, max_iter=MAX_ITER)
+        p_box, it_box = box_cg(gap0, hs, P, cycle.p_lim, tol)
+        warm = dry.solve_dry_contact(moved, hs, P, cycle.p_lim, tol=tol, max_iter=MAX_ITER,
+                                     p_init=cold.pressure)
+        p_warm, it_warm = box_cg(moved, hs, P, cycle.p_lim, tol, p_init=cold.pressure)
+        out["steps"] += 1
+        out["solver cold"] += cold.iterations
+        out["box CG cold"] += it_box
+        out["solver warm"] += warm.iterations
+        out["box CG warm"] += it_warm
+        for a, b in ((cold.pressure, p_box), (warm.pressure, p_warm)):
+            out["largest difference"] = max(out["largest difference"],
+                                            float(np.linalg.norm(a - b) / np.linalg.norm(a)))
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--surface", choices=("random", "gear"), default="gear")
@@ -142,13 +219,27 @@ def main() -> None:
     ap.add_argument("--tol", type=float, default=1e-8)
     ap.add_argument("--ref-tol", type=float, default=1e-12)
     ap.add_argument("--pressure", type=float, default=2.75e9, help="random surface [Pa]")
+    ap.add_argument("--steps", type=int, default=None, metavar="N",
+                    help="instead: every step of a gear position at N², cold and warm")
+    ap.add_argument("--position", type=int, default=3)
+    ap.add_argument("--moved", type=float, default=20e-9,
+                    help="RMS of the gap's change before a warm solve [m] (--steps)")
     args = ap.parse_args()
+    if args.steps:
+        totals = step_totals(args.steps, args.position, args.tol, args.moved)
+        print(f"Every step of the paper gear's position {args.position} at {args.steps}², tol "
+              f"{args.tol:g}, gap moved by {args.moved:g} m RMS before the warm solves — "
+              f"{datetime.date.today().isoformat()}, commit {source_commit()}")
+        print(", ".join(f"{k}: {v:.2e}" if isinstance(v, float) else f"{k}: {v}"
+                        for k, v in totals.items()))
+        return
     print(f"One CG for both bounds against the yielded set's search — {args.surface}, tol "
           f"{args.tol:g}, {datetime.date.today().isoformat()}, commit {source_commit()}")
     print()
     print("| grid | solver: iterations (fine) | fine-equivalent | error | one level: iterations "
-          "| error | box CG: iterations | error | yielded share |")
-    print("|---|---|---|---|---|---|---|---|---|")
+          "| error | box CG: iterations | error | box CG, coarse to fine: fine iterations "
+          "| fine-equivalent | error | yielded share |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for n in args.sizes:
         problem = (gear_problem(n) if args.surface == "gear"
                    else random_problem(n, args.pressure))
@@ -163,10 +254,12 @@ def main() -> None:
         one = dry.solve_dry_contact(gap0, hs, P, p_lim, tol=args.tol, max_iter=MAX_ITER,
                                     coarsest=0)
         p_box, it_box = box_cg(gap0, hs, P, p_lim, args.tol)
+        p_lev, it_lev, eq_lev = box_cg_levels(gap0, hs, P, p_lim, args.tol)
         yielded = float(np.mean(ref >= (1 - 1e-9) * p_lim)) if math.isfinite(p_lim) else 0.0
         print(f"| {n}² | {sol.iterations} ({sol.iterations - sol.coarse_iterations}) | "
               f"{fine_eq:.1f} | {err(sol.pressure):.2e} | {one.iterations} | "
-              f"{err(one.pressure):.2e} | {it_box} | {err(p_box):.2e} | {100 * yielded:.1f} % |",
+              f"{err(one.pressure):.2e} | {it_box} | {err(p_box):.2e} | {it_lev} | "
+              f"{eq_lev:.1f} | {err(p_lev):.2e} | {100 * yielded:.1f} % |",
               flush=True)
 
 
