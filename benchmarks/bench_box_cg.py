@@ -23,11 +23,13 @@ Vollebregt, J. Optim. Theory Appl. 162 (2014) 931–953, does for contact withou
   bound violating its condition by more than the residual.
 
 A plain serial NumPy transcription, written for the comparison only: the solver is not built
-on it (no coarse-to-fine start, no slabs, no compiled stages). Each iteration takes the same
+on it (no slabs, no compiled stages; the coarse-to-fine start of :func:`box_cg_levels` repeats
+the solver's with dry's own restriction and prolongation). Each iteration takes the same
 two convolutions as one of the solver's, plus the load's bisection. For each size: the
 solver's cold solve as it is (iterations over all levels, the fine grid's in brackets, the
 fine-equivalent count of bench_multilevel.py), the solver on one level (``coarsest=0``) and
-the box CG, both from uniform pressure, each with its relative L2 pressure error against
+the box CG, both from uniform pressure, and the box CG after the coarse-to-fine start
+(:func:`box_cg_levels`), each with its relative L2 pressure error against
 bench_multilevel's tight reference. Prints a markdown table; no timings. With ``--steps N``
 instead: every time step of a gear position at N², cold and warm, iterations summed
 (:func:`step_totals`).
@@ -176,23 +178,15 @@ def step_totals(n: int, position: int, tol: float, moved_rms: float) -> dict:
     Gaussian surface of bench_contact's correlation lengths, one seed per step: what a warm
     start meets in a life, the surfaces worn a little between two evaluations), by the solver
     and by the box CG; with the largest relative L2 difference between the two answers."""
-    from dataclasses import replace
+    from bench_early_updates import step_gaps
 
-    from micropit_hpc.cycle import PositionCycle
-    from micropit_hpc.plan import make_plan
-    from micropit_hpc.scene import load_scene
     from micropit_hpc.surfaces import gaussian_surface
 
-    base = load_scene(str(Path(__file__).resolve().parents[1] / "scenes" / "paper_gear_z23.toml"))
-    scene = replace(base, window=replace(base.window, nx=n, ny=None))
-    plan = make_plan(scene, positions=[position], life=False)
-    cycle = PositionCycle(plan.study, position, window=plan.window)
+    cycle, steps = step_gaps(n, position)
     hs = dry.ElasticHalfSpaces(cycle.grid, cycle.study.E_prime)
     out = {"steps": 0, "solver cold": 0, "box CG cold": 0, "solver warm": 0, "box CG warm": 0,
            "largest difference": 0.0}
-    for j in range(cycle.steps):
-        gap0 = cycle.rough_gap(j)
-        P = cycle.mean_pressure(cycle.centre(cycle.time(j)))
+    for j, gap0, P in steps:
         if P <= 0.0:
             continue
         moved = gap0 + gaussian_surface(cycle.grid, moved_rms, 30e-6, 300e-6, seed=j).heights
