@@ -79,9 +79,9 @@ def contact_rows(n: int, kernels, repeat: int):
         box = {}
 
         def solve(stages=stages, box=box):
-            p, _, it, err = _polonsky_keer(gap0, hs, P, scale, 1e-8, MAX_ITER,
-                                           np.full(grid.shape, P), None, grid.nx * grid.ny,
-                                           Reductions(None), stages)
+            p, _, it, err, _ = _polonsky_keer(gap0, hs, P, scale, 1e-8, MAX_ITER,
+                                              np.full(grid.shape, P), None,
+                                              grid.nx * grid.ny, Reductions(None), stages)
             box["it"] = it
         t = per_call(solve, repeat)
         rows.append(("contact iteration", n, kernel, box["it"], t / box["it"], floor))

@@ -286,7 +286,8 @@ def iteration_stages(shape, kernel: str | None = None):
 def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float,
                    tol: float, max_iter: int, p: np.ndarray,
                    excluded: np.ndarray | None, N: int,
-                   group: Reductions, stages) -> tuple[np.ndarray, np.ndarray, int, float]:
+                   group: Reductions, stages, work: tuple[np.ndarray, np.ndarray] | None = None,
+                   ) -> tuple[np.ndarray, np.ndarray, int, float, float]:
     """Elastic load-controlled contact, Polonsky & Keer (1999) eqs. (13)–(22); points in
     ``excluded`` carry no pressure and may not enter. Unlike their δ = 0 after points enter the
     contact, the direction stays conjugate through entries (:data:`RESET_ON_ENTRY`): each
@@ -297,9 +298,12 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
     direction that no longer descends (Σ g t ≤ 0) is replaced by steepest descent in that
     iteration (one more convolution): stepping backwards, points would enter at −τ g < 0 (seen
     on a nearly flat, heavily worn surface, tests/test_hard_cases.py).
-    Returns (p, g − ḡ, iterations, ε).
+    Returns (p, g − ḡ, iterations, ε, ḡ): ḡ is the mean gap over the contact points, the rigid
+    approach δ of g = g0 + u(p) − δ (to round-off).
     ``g0``, ``p``, ``excluded``: this rank's rows of the ``N`` points of the window (C-ordered;
     ``p`` is updated in place); every sum and scalar product is reduced over ``group``.
+    ``work``: two arrays of ``g0``'s shape for the gap and the direction (None: new ones); the
+    gap returned is the first.
 
     One iteration is two convolutions u(p) and u(t) and five elementwise passes, the
     ``stages`` (:func:`iteration_stages`). The fields they write for a convolution go straight
@@ -318,16 +322,20 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
     if buf is not None:
         buf[...] = p
     c = P * N / p_sum
-    g = np.empty_like(g0)
-    t = np.zeros_like(g0)
-    G_old, conjugate, error = 1.0, False, math.inf
+    if work is None:
+        g, t = np.empty_like(g0), np.zeros_like(g0)
+    else:
+        g, t = work
+        t.fill(0.0)
+    G_old, conjugate, error, mean = 1.0, False, math.inf, 0.0
     it = best_it = 0
     best = math.inf
     while it < max_iter:
         it += 1
         u = hs.response(p if buf is None else None)
         g_sum, n_contact = group.sums(*stages.gap(g0, u, c, p, g))
-        (G,) = group.sums(stages.centre(g, p, g_sum / n_contact))
+        mean = g_sum / n_contact
+        (G,) = group.sums(stages.centre(g, p, mean))
         error = math.sqrt(G / n_contact) / scale
         if error <= tol:
             break
@@ -356,7 +364,7 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
         conjugate = not (n_enter and RESET_ON_ENTRY)
         c = P * N / p_sum
     p *= c
-    return p, g, it, error
+    return p, g, it, error, mean
 
 
 #: The grid at which ``tol`` is the relative residual ε itself (points along the longer side;
@@ -629,6 +637,11 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
              if math.isfinite(p_lim) and LOOSE_UPDATES > 0 else [])
     phase_tol = rungs.pop(0) if rungs else tol
     first_rung, rung_updates = True, 0
+    # g0 plus the yielded points' displacement, made anew only when the set has changed since
+    # (``version`` counts the changes; a rung or an early update that leaves the set as it
+    # was keeps it): the same array, one convolution less
+    g_fixed, version, fixed_version = g0, 0, -1
+    work = (np.empty_like(g0), np.empty_like(g0))
     while used < max_iter:
         updates += 1
         rung_updates += 1
@@ -638,9 +651,13 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         if P_el <= 0.0:   # the cap alone would carry more than the load: start the set anew
             plastic[...] = False
             n_pl, P_el = 0, P
-        g_fixed = g0
-        if n_pl:
-            g_fixed = g0 + hs.displacement(np.where(plastic, p_lim, 0.0))
+            version += 1
+        if not n_pl:
+            g_fixed = g0
+        else:
+            if fixed_version != version:
+                g_fixed = g0 + hs.displacement(np.where(plastic, p_lim, 0.0))
+                fixed_version = version
             p = np.where(plastic, 0.0, p)
             if not group.any(p):
                 p = np.where(plastic, 0.0, P_el)
@@ -649,8 +666,8 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
             excluded = held if excluded is None else excluded | held
         capped = early_left > 0 and phase_tol > tol and (first_rung or EARLY_EVERY_RUNG)
         budget = min(max_iter - used, EARLY_UPDATE_ITERATIONS) if capped else max_iter - used
-        p, g, it, error = _polonsky_keer(g_fixed, hs, P_el, scale, phase_tol, budget,
-                                         p, excluded, N, group, stages)
+        p, g, it, error, approach = _polonsky_keer(g_fixed, hs, P_el, scale, phase_tol,
+                                                   budget, p, excluded, N, group, stages, work)
         used += it
         early = capped and error > phase_tol and it == budget
         if error > phase_tol and not early:
@@ -681,6 +698,7 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
             early_left -= 1
             if n_grow or n_release:
                 plastic = (plastic & ~release) | grow
+                version += 1
             else:       # the set held: from here on the inexact solves run to √tol
                 early_left = 0
             p = p_total
@@ -699,7 +717,8 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
         elif not n_grow and not n_release:
             p, settled = p_total, True
             break
-        plastic = (plastic & ~release) | grow
+        plastic = (plastic & ~release) | grow       # n_grow or n_release: a new set
+        version += 1
         p = p_total
         np.minimum(p, p_lim, out=p)
     if not settled:
@@ -712,5 +731,6 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
             f"dry contact did not converge: {why} after {used} iterations (raise "
             "lubrication.max_iterations or the tolerance; "
             "check that the roughness is resolved by the grid)", iterations=used)
-    (delta_sum,) = group.sums((g0 + hs.displacement(p) - g).sum())
-    return DryContact(p, g, float(delta_sum / N), used, error, coarse_used)
+    # g = g0 + u(p) − δ with δ the last CG step's mean contact gap: the yielded points' share
+    # of u is in g_fixed, the others' in the step's gap (g0 + u(p) − g = δ to round-off)
+    return DryContact(p, g, float(approach), used, error, coarse_used)
