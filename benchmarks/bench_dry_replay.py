@@ -33,21 +33,16 @@ import numpy as np  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
-from bench_wear_convergence import item_run, reference_surfaces  # noqa: E402
+from bench_item_profile import add_item_arguments, item_from_arguments  # noqa: E402
 
 from micropit_hpc import source_commit  # noqa: E402
 from micropit_hpc.lubrication import dry, mixed  # noqa: E402
-from micropit_hpc.scene import load_scene  # noqa: E402
 from micropit_hpc.spectral import Grid  # noqa: E402
-
-ROOT = Path(__file__).resolve().parents[1]
 
 
 def record(a) -> int:
     """One block of the item; every loaded dry solve's arguments into ``a.out``."""
-    base = load_scene(a.scene)
-    run = item_run(base, a.position, a.k_lub, a.n, max(a.cycles_M, base.life.block / 1e6),
-                   reference_surfaces(base, a.ref))
+    run = item_from_arguments(a)
     calls = []
     orig = mixed.solve_dry_contact
 
@@ -130,12 +125,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = ap.add_subparsers(dest="command", required=True)
     r = sub.add_parser("record", help="record one item's dry solves")
-    r.add_argument("--scene", default=str(ROOT / "scenes" / "paper_gear_z23.toml"))
-    r.add_argument("--position", type=int, default=3)
-    r.add_argument("--k-lub", type=float, default=5e-11)
-    r.add_argument("--n", type=int, default=64, help="grid points per side")
-    r.add_argument("--cycles-M", type=float, default=0.01, help="the block's cycles [M]")
-    r.add_argument("--ref", type=int, default=256, help="grid of the surface realisation")
+    add_item_arguments(r, position=3, cycles_M=0.01)
     r.add_argument("--max-solves", type=int, default=5000, help="record at most this many")
     r.add_argument("--out", required=True, help=".npz file to write")
     p = sub.add_parser("replay", help="replay recorded dry solves")

@@ -35,21 +35,32 @@ from micropit_hpc.scene import load_scene
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def add_item_arguments(ap, position: int, cycles_M: float) -> None:
+    """The options that choose the work item and its block (these defaults for ``--position``
+    and ``--cycles-M``); :func:`item_from_arguments` makes it."""
     ap.add_argument("--scene", default=str(ROOT / "scenes" / "paper_gear_z23.toml"))
-    ap.add_argument("--position", type=int, default=5)
+    ap.add_argument("--position", type=int, default=position)
     ap.add_argument("--k-lub", type=float, default=5e-11)
     ap.add_argument("--n", type=int, default=64, help="grid points per side")
-    ap.add_argument("--cycles-M", type=float, default=0.3, help="the block's cycles [M]")
+    ap.add_argument("--cycles-M", type=float, default=cycles_M, help="the block's cycles [M]")
     ap.add_argument("--ref", type=int, default=256, help="grid of the surface realisation")
+
+
+def item_from_arguments(a):
+    """The work item of :func:`add_item_arguments`' options, ready for ``run_block``."""
+    base = load_scene(a.scene)
+    return item_run(base, a.position, a.k_lub, a.n, max(a.cycles_M, base.life.block / 1e6),
+                    reference_surfaces(base, a.ref))
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    add_item_arguments(ap, position=5, cycles_M=0.3)
     ap.add_argument("--lines", type=int, default=40, help="profile lines per listing")
     ap.add_argument("--scan", action="store_true",
                     help="the load-fraction scans' statistics instead of the profile")
     a = ap.parse_args(argv)
-    base = load_scene(a.scene)
-    run = item_run(base, a.position, a.k_lub, a.n, max(a.cycles_M, base.life.block / 1e6),
-                   reference_surfaces(base, a.ref))
+    run = item_from_arguments(a)
     if a.scan:
         return scan_statistics(run, a.cycles_M * 1e6)
     prof = cProfile.Profile()
