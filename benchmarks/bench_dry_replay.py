@@ -3,11 +3,12 @@ a fingerprint of their answers, to compare two versions of ``lubrication/dry.py`
 the life loop really makes (docs/performance.md §2, "The dry solves' bookkeeping").
 
 ``record`` runs one block of one item (as ``bench_item_profile.py``: the scene's converged
-default, one 256² realisation resampled to ``--n``) and stores the arguments of every dry
-solve the mixed level makes (the undeformed gap, load, cap, tolerance, start, held columns)
+default, one 256² realisation resampled to ``--n``) and stores the arguments of every loaded
+dry solve the mixed level makes (the undeformed gap, load, cap, tolerance, start, held columns)
 in an ``.npz`` file. ``replay`` solves them again, ``--repeat`` times, and prints the median
-wall time of the whole set, the CG iterations and the displacement transforms it took, and a
-SHA-256 of the pressures and gaps (equal fingerprints: the same answers bit for bit).
+wall time of the whole set, the CG iterations and the convolutions (each a forward and an
+inverse transform) it took, and a SHA-256 of the pressures and gaps (equal fingerprints: the
+same answers bit for bit).
 
     python benchmarks/bench_dry_replay.py record --position 3 --cycles-M 0.01 --out runs/dry_p3.npz
     python benchmarks/bench_dry_replay.py replay runs/dry_p3.npz --repeat 5
