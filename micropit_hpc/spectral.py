@@ -397,10 +397,20 @@ def to_material_frame(field: np.ndarray, shift: float, dx: float) -> np.ndarray:
     s = shift / dx
     q = math.floor(s)
     f = s - q
-    a = np.roll(field, -q, axis=0)
     if f == 0.0:
-        return a
-    return (1.0 - f) * a + f * np.roll(a, -1, axis=0)
+        return np.roll(field, -q, axis=0)
+    # (1 − f) F[i + q] + f F[i + q + 1], i + q taken modulo n: each product written by two
+    # slices of ``field`` straight into its place (no rolled copies), the same operations
+    # element by element as rolling first, so the same bits
+    n = field.shape[0]
+    k, k1 = q % n, (q + 1) % n
+    out = np.empty(field.shape, np.result_type(field, f))
+    right = np.empty_like(out)
+    np.multiply(field[k:], 1.0 - f, out=out[:n - k])
+    np.multiply(field[:k], 1.0 - f, out=out[n - k:])
+    np.multiply(field[k1:], f, out=right[:n - k1])
+    np.multiply(field[:k1], f, out=right[n - k1:])
+    return np.add(out, right, out=out)
 
 
 def main(argv=None) -> int:

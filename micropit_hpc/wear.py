@@ -94,7 +94,8 @@ def solid_weight(clearance: np.ndarray, h_min: float, ramp: float) -> np.ndarray
     out of it, and no worn depth is consistent with its own rate."""
     if ramp <= 0.0:
         return (clearance <= h_min).astype(float)
-    return np.clip((h_min + ramp - clearance) / ramp, 0.0, 1.0)
+    # np.clip's value, without np.clip's per-call checks
+    return np.minimum(np.maximum((h_min + ramp - clearance) / ramp, 0.0), 1.0)
 
 
 def archard_wear(pressures: Sequence[np.ndarray], solids: Sequence[np.ndarray],

@@ -610,7 +610,7 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
                                       max_iter, levels, kernel, free_whole)
         p_init = None if p_whole is None else p_whole[rows]
     coarse_used = used
-    p = np.full_like(g0, P) if p_init is None else np.clip(p_init, 0.0, None).astype(float)
+    p = np.full_like(g0, P) if p_init is None else np.maximum(p_init, 0.0).astype(float, copy=False)
     if not group.any(p):
         p[...] = P
     plastic = p >= p_lim
