@@ -332,6 +332,13 @@ MIN_WEAR_STEP = 1.0 / 16.0
 CAP_GROWTH = 1.25
 
 
+#: Whether a wear step that its first iterate (a solved depth scaled to the step) shows past the
+#: sub-block's shape limit is cut before it is solved (:func:`implicit_sub_block`). False: every
+#: step is solved at the controller's length and cut only after its solve, which then is thrown
+#: away (docs/life.md, "Implicit wear": the contact cycles this saves).
+SHAPE_FORECAST = True
+
+
 def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResult,
                        surfaces: tuple[Topography, Topography],
                        pits: tuple[np.ndarray, np.ndarray] | None, warm: dict, n: float,
@@ -353,7 +360,8 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
     surfaces. Each solve is preconditioned by the half-spaces' elastic relief
     (:class:`~micropit_hpc.implicit_wear.SpectralRelief`) and starts from the ``previous``
     accepted step's worn depth scaled to its length (the last sub-block's, None: the explicit
-    step). Collective (the contact)."""
+    step), or, where a converged step was cut shorter (by the accuracy or the shape limit),
+    from that step's worn depth scaled to the shorter length. Collective (the contact)."""
     bodies = state.bodies
     intact = [~b.pitted for b in bodies]
     rq = min((b.rq0 for b in bodies if b.rq0 > 0), default=0.0)
@@ -375,6 +383,7 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
                    in zip(maps, intact, bodies, strict=True) if b.rq0 > 0)
 
     limit, last, fallback = life.max_wear_fraction, False, 0.0
+    retry = None        # a converged step cut shorter: its depth, scaled, starts the shorter one
     hs = cycle.half_spaces
     relief = SpectralRelief(hs.stiffness, hs.self_compliance, cycle.grid.shape)
     while n - done > 1e-9 * n:
@@ -386,14 +395,27 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
             break
         m = min(h, n - done)
         base = depth
+        start = previous if retry is None else retry
+        if (SHAPE_FORECAST and start is not None and not last and m > smallest
+                and done + m > floor * (1 + 1e-9)):
+            # the first iterate, scaled to m, foretells the step's shape change (it is a
+            # solved depth at another length): a step it shows past the shape limit is cut
+            # before it is solved, as a solved one would be
+            ahead = shape(tuple(d + (m / start[0]) * w
+                                for d, w in zip(depth, start[1], strict=True)))
+            before = shape(depth)
+            if ahead > limit * (1 + 1e-9):
+                cut = max(floor - done,
+                          0.95 * m * (limit - before) / max(ahead - before, 1e-300))
+                if cut < (1 - 1e-6) * m:
+                    m, last = max(cut, smallest), True
 
         def rates(w, base=base):
             return cycle.wear_rates(_worn(surfaces, state, tuple(
                 d + x for d, x in zip(base, w, strict=True))), pits, warm)
 
         with event("implicit_wear"):
-            guess = None if previous is None else tuple(
-                (m / previous[0]) * w for w in previous[1])
+            guess = None if start is None else tuple((m / start[0]) * w for w in start[1])
             sol = backward_euler(rates, now, m, tol, max_iter=life.wear_max_iter,
                                  errors=(ContactError,), relief=relief, guess=guess)
         spent += sol.iterations
@@ -404,6 +426,7 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
             continue
         if m > smallest and err > accuracy:
             h = max(next_length(m, err, accuracy, grow=1.0), smallest)
+            retry = (m, sol.depth)
             continue
         after = tuple(d + x for d, x in zip(depth, sol.depth, strict=True))
         grown, before = shape(after), shape(depth)
@@ -412,6 +435,7 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
             cut = max(floor - done, 0.95 * m * (limit - before) / max(grown - before, 1e-300))
             if cut < (1 - 1e-6) * m:
                 h, last = max(cut, smallest), True
+                retry = (m, sol.depth)
                 continue
         if not sol.converged or 3 * sol.iterations > life.wear_max_iter:
             cap = min(cap, m)                   # (not converged: accepted at the smallest step)
@@ -419,7 +443,7 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
             cap *= CAP_GROWTH
         worst = max(worst, sol.residual / rq)
         depth, now, done = after, sol.rate_end, done + m
-        previous = (m, sol.depth)
+        previous, retry = (m, sol.depth), None
         h = min(next_length(m, err, accuracy), max(cap, m))
         if done >= floor * (1 - 1e-9) and (last or grown >= limit):
             break

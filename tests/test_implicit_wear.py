@@ -249,6 +249,64 @@ def test_a_worn_cosine_converges_with_the_grid_and_polishes():
     assert wear[256] == pytest.approx(wear[128], rel=0.1)
 
 
+def _spied_wave(monkeypatch, n: int, forecast: bool | None = None):
+    """The wave of :func:`_worn_wave` (one block; ``life.SHAPE_FORECAST`` = ``forecast``,
+    None: the default) and every implicit wear solve of it, in order: its length, first
+    iterate, solution and whether the step was accepted."""
+    from micropit_hpc import life
+
+    calls, solve, length = [], backward_euler, next_length      # (the module's own, unspied)
+
+    def spy_solve(rates, start, n, tol, **kw):
+        sol = solve(rates, start, n, tol, **kw)
+        calls.append({"n": n, "guess": kw.get("guess"), "sol": sol, "accepted": False})
+        return sol
+
+    def spy_length(n, error, tol, grow=4.0, shrink=0.2):
+        if grow != 1.0:             # called on an accepted step only (1.0: an accuracy cut)
+            calls[-1]["accepted"] = True
+        return length(n, error, tol, grow, shrink)
+    monkeypatch.setattr(life, "backward_euler", spy_solve)
+    monkeypatch.setattr(life, "next_length", spy_length)
+    if forecast is not None:
+        monkeypatch.setattr(life, "SHAPE_FORECAST", forecast)
+    profile, _, _ = _worn_wave(n, blocks=1)
+    return profile, calls
+
+
+def test_a_step_cut_at_the_shape_limit_restarts_from_its_own_depth(monkeypatch):
+    """A converged step that would change the shape by more than the sub-block's limit is
+    cut shorter; the shorter step's first iterate is the cut step's worn depth scaled to its
+    length (the solution of the same sub-block a little further on), not the last accepted
+    step's. Seen from the calls, with the forecast below off so that the wave's running-in
+    has such a cut: every solve that follows a cut starts from that guess, bit for bit."""
+    _, calls = _spied_wave(monkeypatch, 64, forecast=False)
+    cuts = [(a, b) for a, b in itertools.pairwise(calls)
+            if not a["accepted"] and a["sol"].converged]
+    assert cuts, [(c["n"], c["accepted"]) for c in calls]
+    for a, b in cuts:
+        assert b["n"] < a["n"] and b["guess"] is not None
+        for g, w in zip(b["guess"], a["sol"].depth, strict=True):
+            assert np.array_equal(g, (b["n"] / a["n"]) * w)
+
+
+def test_a_step_foretold_past_the_shape_limit_is_cut_before_it_is_solved(monkeypatch):
+    """With ``life.SHAPE_FORECAST`` (the default) no converged solve of the wave is thrown
+    away, where without it one is, and the worn profiles agree to 2 % of the crest's wear,
+    the band in which the grids agree (test_a_worn_cosine_converges_with_the_grid_and_polishes):
+    the forecast moves where sub-blocks end, by less than the wear's accuracy control."""
+    n = 64
+    foretold, calls = _spied_wave(monkeypatch, n)
+    solved, calls_off = _spied_wave(monkeypatch, n, forecast=False)
+    assert all(c["accepted"] for c in calls), [(c["n"], c["accepted"]) for c in calls]
+    assert not all(c["accepted"] for c in calls_off)
+    assert len(calls) < len(calls_off)
+    h0 = 0.4e-6 * np.cos(2 * math.pi * (np.arange(n) + 0.5) / n)
+    crest = float((h0 - foretold).max())
+    assert crest > 0.05e-6
+    assert np.abs(foretold - solved).max() < 0.02 * crest
+
+
 def test_the_relaxed_update_wears_a_cosine_by_the_cell_size():
     """The previous default, for contrast: its relief is one cell's, so the worn depth halves
     with the cell while the implicit one does not move (the test above)."""
