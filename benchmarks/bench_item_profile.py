@@ -13,6 +13,11 @@ have a film balance f(φ) that is not falling through the trials, the smallest f
 their trials, and the dry solves' count, time and iterations: at no load (φ = 0), the loose
 trials, and the solves at the scene's tolerance.
 
+``--wear-steps`` instead of the profile: the implicit wear's solves (docs/life.md, "Steps cut
+at the shape limit"): how many were accepted and how many thrown away (cut after their solve
+by the accuracy or the shape limit, or not converged), and the contact-only load cycles each
+kind took, then the block's numbers.
+
 Timings, not tests: the profiler itself adds about a third to a contact-bound block.
 """
 
@@ -29,6 +34,7 @@ from pathlib import Path
 
 from bench_wear_convergence import item_run, reference_surfaces
 
+from micropit_hpc import life
 from micropit_hpc.lubrication import mixed
 from micropit_hpc.scene import load_scene
 
@@ -59,21 +65,59 @@ def main(argv=None) -> int:
     ap.add_argument("--lines", type=int, default=40, help="profile lines per listing")
     ap.add_argument("--scan", action="store_true",
                     help="the load-fraction scans' statistics instead of the profile")
+    ap.add_argument("--wear-steps", action="store_true",
+                    help="the implicit wear's accepted and thrown-away solves instead of the "
+                    "profile")
     a = ap.parse_args(argv)
     run = item_from_arguments(a)
     if a.scan:
         return scan_statistics(run, a.cycles_M * 1e6)
+    if a.wear_steps:
+        return wear_step_statistics(run, a.cycles_M * 1e6)
     prof = cProfile.Profile()
     t0 = time.perf_counter()
     prof.enable()
     rec = run.run_block(a.cycles_M * 1e6)
     prof.disable()
-    wall = time.perf_counter() - t0
-    print(f"wall {wall:.1f} s under the profiler; sub-blocks {rec.sub_blocks}, contact-only "
-          f"cycles {rec.wear_cycles}; A_p {rec.Ap[0]!r} / {rec.Ap[1]!r} %; wear "
-          f"{sum(rec.wear_mean)!r} m")
+    print(f"wall {time.perf_counter() - t0:.1f} s under the profiler; {block_numbers(rec)}")
     for key in ("cumulative", "tottime"):
         pstats.Stats(prof, stream=sys.stdout).sort_stats(key).print_stats(a.lines)
+    return 0
+
+
+def block_numbers(rec) -> str:
+    """The block's sub-blocks, contact-only cycles, A_p and wear, for comparing two codes."""
+    return (f"sub-blocks {rec.sub_blocks}, contact-only cycles {rec.wear_cycles}; A_p "
+            f"{rec.Ap[0]!r} / {rec.Ap[1]!r} %; wear {sum(rec.wear_mean)!r} m")
+
+
+def wear_step_statistics(run, cycles: float) -> int:
+    """One block of ``run`` with the implicit wear's solver and step-length rule wrapped in
+    ``micropit_hpc.life``: the statistics of ``--wear-steps`` (module docstring). A solve is
+    accepted when the step-length rule is called on it to grow the next step."""
+    solves = []
+
+    def solve(*args, **kw):
+        sol = orig_solve(*args, **kw)
+        solves.append([sol.iterations, False])
+        return sol
+
+    def length(n, error, tol, grow=4.0, shrink=0.2):
+        if grow != 1.0:             # 1.0: the accuracy's cut of a solved step
+            solves[-1][1] = True
+        return orig_length(n, error, tol, grow, shrink)
+
+    orig_solve, orig_length = life.backward_euler, life.next_length
+    life.backward_euler, life.next_length = solve, length
+    try:
+        rec = run.run_block(cycles)
+    finally:
+        life.backward_euler, life.next_length = orig_solve, orig_length
+    kept = [it for it, ok in solves if ok]
+    lost = [it for it, ok in solves if not ok]
+    print(f"wear solves {len(solves)}: accepted {len(kept)} ({sum(kept)} contact-only cycles), "
+          f"thrown away {len(lost)} ({sum(lost)} cycles)")
+    print(block_numbers(rec))
     return 0
 
 

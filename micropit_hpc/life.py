@@ -335,7 +335,7 @@ CAP_GROWTH = 1.25
 #: Whether a wear step that its first iterate (a solved depth scaled to the step) shows past the
 #: sub-block's shape limit is cut before it is solved (:func:`implicit_sub_block`). False: every
 #: step is solved at the controller's length and cut only after its solve, which then is thrown
-#: away (docs/life.md, "Implicit wear": the contact cycles this saves).
+#: away (docs/life.md, "Steps cut at the shape limit": the contact cycles this saves).
 SHAPE_FORECAST = True
 
 
