@@ -384,6 +384,14 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
 
     limit, last, fallback = life.max_wear_fraction, False, 0.0
     retry = None        # a converged step cut shorter: its depth, scaled, starts the shorter one
+
+    def landing(m: float, change: float, before: float, done: float) -> float | None:
+        """The length that lands a step of ``m`` cycles, whose shape change is ``change``, at
+        0.95 of the limit (but not before the floor; linear in the step), or None where
+        that is not shorter than m."""
+        cut = max(floor - done, 0.95 * m * (limit - before) / max(change - before, 1e-300))
+        return max(cut, smallest) if cut < (1 - 1e-6) * m else None
+
     hs = cycle.half_spaces
     relief = SpectralRelief(hs.stiffness, hs.self_compliance, cycle.grid.shape)
     while n - done > 1e-9 * n:
@@ -394,7 +402,7 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
             done = n
             break
         m = min(h, n - done)
-        base = depth
+        base, before = depth, shape(depth)
         start = previous if retry is None else retry
         if (SHAPE_FORECAST and start is not None and not last and m > smallest
                 and done + m > floor * (1 + 1e-9)):
@@ -403,12 +411,9 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
             # before it is solved, as a solved one would be
             ahead = shape(tuple(d + (m / start[0]) * w
                                 for d, w in zip(depth, start[1], strict=True)))
-            before = shape(depth)
-            if ahead > limit * (1 + 1e-9):
-                cut = max(floor - done,
-                          0.95 * m * (limit - before) / max(ahead - before, 1e-300))
-                if cut < (1 - 1e-6) * m:
-                    m, last = max(cut, smallest), True
+            cut = landing(m, ahead, before, done) if ahead > limit * (1 + 1e-9) else None
+            if cut is not None:
+                m, last = cut, True
 
         def rates(w, base=base):
             return cycle.wear_rates(_worn(surfaces, state, tuple(
@@ -429,13 +434,12 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
             retry = (m, sol.depth)
             continue
         after = tuple(d + x for d, x in zip(depth, sol.depth, strict=True))
-        grown, before = shape(after), shape(depth)
+        grown = shape(after)
         if done + m > floor * (1 + 1e-9) and grown > limit * (1 + 1e-9) and m > smallest:
             # end the sub-block at the shape limit (but not before the floor): a shorter step
-            cut = max(floor - done, 0.95 * m * (limit - before) / max(grown - before, 1e-300))
-            if cut < (1 - 1e-6) * m:
-                h, last = max(cut, smallest), True
-                retry = (m, sol.depth)
+            cut = landing(m, grown, before, done)
+            if cut is not None:
+                h, last, retry = cut, True, (m, sol.depth)
                 continue
         if not sol.converged or 3 * sol.iterations > life.wear_max_iter:
             cap = min(cap, m)                   # (not converged: accepted at the smallest step)
