@@ -13,10 +13,10 @@ have a film balance f(φ) that is not falling through the trials, the smallest f
 their trials, and the dry solves' count, time and iterations: at no load (φ = 0), the loose
 trials, and the solves at the scene's tolerance.
 
-``--wear-steps`` instead of the profile: the implicit wear's solves (docs/life.md, "Steps cut
-at the shape limit"): how many were accepted and how many thrown away (cut after their solve
-by the accuracy or the shape limit, or not converged), and the contact-only load cycles each
-kind took, then the block's numbers.
+``--wear-steps`` instead of the profile: the implicit wear's contact-only load cycles and how
+many of them went to solves thrown away (cut after their solve by the accuracy or the shape
+limit, or not converged; docs/life.md, "Steps cut at the shape limit"), then the block's
+numbers.
 
 Timings, not tests: the profiler itself adds about a third to a contact-bound block.
 """
@@ -92,31 +92,26 @@ def block_numbers(rec) -> str:
 
 
 def wear_step_statistics(run, cycles: float) -> int:
-    """One block of ``run`` with the implicit wear's solver and step-length rule wrapped in
-    ``micropit_hpc.life``: the statistics of ``--wear-steps`` (module docstring). A solve is
-    accepted when the step-length rule is called on it to grow the next step."""
-    solves = []
+    """One block of ``run`` with ``life.implicit_sub_block`` wrapped: its solves, contact-only
+    cycles and thrown-away solves (:class:`~micropit_hpc.life.WearSteps`) summed, the
+    statistics of ``--wear-steps`` (module docstring)."""
+    steps = []
 
-    def solve(*args, **kw):
-        sol = orig_solve(*args, **kw)
-        solves.append([sol.iterations, False])
-        return sol
+    def sub_block(*args, **kw):
+        steps.append(orig(*args, **kw))
+        return steps[-1]
 
-    def length(n, error, tol, grow=4.0, shrink=0.2):
-        if grow != 1.0:             # 1.0: the accuracy's cut of a solved step
-            solves[-1][1] = True
-        return orig_length(n, error, tol, grow, shrink)
-
-    orig_solve, orig_length = life.backward_euler, life.next_length
-    life.backward_euler, life.next_length = solve, length
+    orig = life.implicit_sub_block
+    life.implicit_sub_block = sub_block
     try:
         rec = run.run_block(cycles)
     finally:
-        life.backward_euler, life.next_length = orig_solve, orig_length
-    kept = [it for it, ok in solves if ok]
-    lost = [it for it, ok in solves if not ok]
-    print(f"wear solves {len(solves)}: accepted {len(kept)} ({sum(kept)} contact-only cycles), "
-          f"thrown away {len(lost)} ({sum(lost)} cycles)")
+        life.implicit_sub_block = orig
+    lost = sum(w.thrown[0] for w in steps)
+    lost_cycles = sum(w.thrown[1] for w in steps)
+    spent = sum(w.contact_cycles for w in steps)
+    print(f"wear sub-blocks {len(steps)}: {spent} contact-only cycles, of which {lost_cycles} "
+          f"in {lost} solves thrown away")
     print(block_numbers(rec))
     return 0
 

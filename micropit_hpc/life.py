@@ -303,7 +303,9 @@ class WearSteps:
     contact-only load cycles spent, the largest residual of an accepted step over R_q
     (above ``life.wear_tol`` where a step at the smallest length still did not converge), the
     step length the block's steps stay below, the cycles integrated by the relaxed fallback,
-    and the last accepted step (its cycles and worn depths: the next step's first iterate)."""
+    the last accepted step (its cycles and worn depths: the next step's first iterate), and
+    the solves thrown away (not converged, or cut after their solve by the accuracy or the
+    shape limit) with the contact-only load cycles they took, part of ``contact_cycles``."""
 
     cycles: float
     depth: tuple[np.ndarray, np.ndarray]
@@ -313,6 +315,7 @@ class WearSteps:
     cap: float = math.inf
     fallback: float = 0.0
     previous: tuple | None = None
+    thrown: tuple[int, int] = (0, 0)
 
 
 #: The contact-only load cycles one sub-block's implicit wear may spend, in units of
@@ -384,6 +387,7 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
 
     limit, last, fallback = life.max_wear_fraction, False, 0.0
     retry = None        # a converged step cut shorter: its depth, scaled, starts the shorter one
+    thrown = (0, 0)     # solves not accepted, and their contact-only cycles
 
     def landing(m: float, change: float, before: float, done: float) -> float | None:
         """The length that lands a step of ``m`` cycles, whose shape change is ``change``, at
@@ -424,6 +428,7 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
             sol = backward_euler(rates, now, m, tol, max_iter=life.wear_max_iter,
                                  errors=(ContactError,), relief=relief, guess=guess)
         spent += sol.iterations
+        thrown = (thrown[0] + 1, thrown[1] + sol.iterations)    # until it is accepted below
         err = max(sol.error(intact))
         if m > smallest and not sol.converged:
             cap = min(cap, 0.75 * m)
@@ -447,11 +452,12 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
             cap *= CAP_GROWTH
         worst = max(worst, sol.residual / rq)
         depth, now, done = after, sol.rate_end, done + m
+        thrown = (thrown[0] - 1, thrown[1] - sol.iterations)
         previous, retry = (m, sol.depth), None
         h = min(next_length(m, err, accuracy), max(cap, m))
         if done >= floor * (1 - 1e-9) and (last or grown >= limit):
             break
-    return WearSteps(done, depth, h, spent, worst, cap, fallback, previous)
+    return WearSteps(done, depth, h, spent, worst, cap, fallback, previous, thrown)
 
 
 #: A column counts in :func:`deep_damage_ratio` when it gathers at least this damage per block:
