@@ -181,7 +181,7 @@ def _run(args, comm, control, log, t0) -> int:
         ranks_per_item=args.ranks_per_item, restart=args.restart, force=args.force,
         max_wall_s=control.max_wall_s, stop_file=control.stop_file,
         keep=_int_option("micropit_checkpoint_keep", 3),
-        checkpoint_every=_int_option("micropit_checkpoint_every", 1))
+        checkpoint_every=_int_option("micropit_checkpoint_every", 1), balance=args.balance)
     n_blocks = life_blocks(scene)
     estimate.check(scene, comm, args.ranks_per_item, opts.positions, n_blocks, log,
                    ignore_memory=args.ignore_memory_estimate)
@@ -225,7 +225,8 @@ def _run_locked(args, comm, control, log, t0, plan, opts) -> str:
         log(scene.lubricant.derived)
     for line in plan.method_b.lines():
         log(line)
-    log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item, "
+    log(f"{scene.name}: {scene.source}, {comm.size} ranks, {args.ranks_per_item} per item "
+        f"({args.balance} balance), "
         f"{n_blocks} blocks of {scene.life.block / 1e6:g} M cycles{shorter} to "
         f"{scene.life.cycles / 1e6:g} M")
     handlers = (RangeWarnings(scene.life, log),
@@ -392,6 +393,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ranks-per-item", type=_positive_int, default=1, metavar="R",
                    help="ranks per work item: each item's window is split over R ranks "
                         "(default 1: items spread over all ranks)")
+    p.add_argument("--balance", choices=("dynamic", "static"), default="dynamic",
+                   help="how items are spread over the groups of ranks: dynamic (default) "
+                        "hands the first block's items out as groups free up and moves them "
+                        "longest-first by the last block's times before every later block; "
+                        "static keeps round robin (a restart: longest-first). Never changes "
+                        "the numbers")
     p.add_argument("--restart", action="store_true",
                    help="resume from the checkpoint DIR/checkpoints/LATEST names (any number "
                         "of ranks), after verifying it; a damaged one falls back to the "

@@ -136,13 +136,15 @@ def block_fraction(k: int, index: int, count: int, cycles_done: float,
 
 
 def inside_note(k: int, item, index: int, count: int, cycles_done: float,
-                block_cycles: float, sub_block: int, step: int, steps: int) -> str:
+                block_cycles: float, sub_block: int, step: int, steps: int,
+                queued: bool = False) -> str:
     """What a report inside block ``k`` says: the item by id and position, its place among
-    this group's items, the sub-block, the cycles of the block done and the time step; for
-    sub-block 0, the plastic running-in before the first block, its pass ``step`` of at most
-    ``steps``."""
+    this group's items (``queued``: among the block's items as they are handed out), the
+    sub-block, the cycles of the block done and the time step; for sub-block 0, the plastic
+    running-in before the first block, its pass ``step`` of at most ``steps``."""
+    place = "handed out" if queued else "on this rank"
     where = (f"block {k}: item {item.id} (position {item.position}), {index + 1} of {count} "
-             "on this rank, ")
+             f"{place}, ")
     if sub_block == 0:
         return where + f"plastic running-in, pass {step} of ≤ {steps}"
     return where + (f"sub-block {sub_block}, {cycles_done / 1e6:.3g} of "
@@ -183,9 +185,9 @@ class ProgressHandler:
         self.bar.update(start, "starting", milestone=False)   # the first line, at once
 
     def progress(self, k: int, item, i: int, n: int, done: float, total: float, sub: int,
-                 step: int, steps: int) -> None:
+                 step: int, steps: int, queued: bool = False) -> None:
         self.bar.update(block_fraction(k, i, n, done, total),
-                        inside_note(k, item, i, n, done, total, sub, step, steps),
+                        inside_note(k, item, i, n, done, total, sub, step, steps, queued),
                         milestone=False)
 
     def block(self, k: int, blocks: int, records) -> None:

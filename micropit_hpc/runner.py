@@ -81,6 +81,7 @@ class RunOptions:
     stop_file: Path | None = None
     keep: int = 3
     checkpoint_every: int = 1
+    balance: str = "dynamic"
 
 
 @dataclass
@@ -307,8 +308,9 @@ class Handler:
 
     ``start(study, blocks, start)``: before the first block (``start`` blocks already done by
     a restart); ``progress(k, item, i, n, cycles_done, block_cycles, sub_block, step,
-    steps)``: after every time step inside block ``k``, on the ranks of the group that runs
-    ``item`` (the i-th of its n items); ``block(k, blocks, records)``: after block ``k`` and
+    steps, queued)``: after every time step inside block ``k``, on the ranks of the group that
+    runs ``item`` (the i-th of its n items, or, ``queued``, the i-th handed out of the block's
+    n, :class:`~micropit_hpc.study.Study`); ``block(k, blocks, records)``: after block ``k`` and
     its checkpoint, with every item's records so far; ``finish(outcome)``: once the loop ends
     (done or stopped at a block boundary), not after an error."""
 
@@ -316,7 +318,8 @@ class Handler:
         pass
 
     def progress(self, k: int, item, i: int, n: int, cycles_done: float,
-                 block_cycles: float, sub_block: int, step: int, steps: int) -> None:
+                 block_cycles: float, sub_block: int, step: int, steps: int,
+                 queued: bool = False) -> None:
         pass
 
     def block(self, k: int, blocks: int, records: dict[int, list[BlockRecord]]) -> None:
@@ -373,7 +376,8 @@ def run_study(scene: Scene, opts: RunOptions, comm,
     latest = None
     surfaces = from_root(comm, lambda: surface_files(scene), CheckpointError, world=True)
     with stage("setup"):
-        study = Study(scene, comm, opts.ranks_per_item, opts.positions, log, plan=plan)
+        study = Study(scene, comm, opts.ranks_per_item, opts.positions, log, plan=plan,
+                      balance=opts.balance)
         if opts.restart:
             latest = find_latest(ckdir, comm, expect=_expected(study),
                                  on_skip=lambda e: log(f"skipped {e}") if rank0 else None)
@@ -384,7 +388,7 @@ def run_study(scene: Scene, opts: RunOptions, comm,
                          if latest is not None else (None, None))
         if run_id is None:
             run_id = from_root(comm, lambda: uuid.uuid4().hex)
-        if costs is not None:
+        if latest is not None:    # the states are read into the items' groups: no queue
             study.assign(costs)
         study.setup()
     records: dict[int, list[BlockRecord]] = {it.id: [] for it in study.items}

@@ -20,8 +20,8 @@ from dataclasses import MISSING, astuple, dataclass, field, fields
 import numpy as np
 
 __all__ = ["BODY_FIELDS", "ITEM_STATE", "RECORD_FIELDS", "RECORD_UNITS", "BlockRecord",
-           "BodyState", "LifeState", "StateField", "item_state_row", "record_from_row",
-           "record_row", "restore_item_state"]
+           "BodyState", "LifeState", "StateField", "carried", "item_state_row",
+           "record_from_row", "record_row", "restore_carried", "restore_item_state"]
 
 _STATE = "micropit_state"
 _UNIT = "micropit_unit"
@@ -115,6 +115,25 @@ def restore_item_state(state: LifeState, row: np.ndarray) -> None:
     state.cycles, state.block = float(row[0]), int(row[1])
     for b, bs in enumerate(state.bodies):
         bs.rq0 = float(row[2 + b])
+
+
+def carried(state: LifeState) -> list[np.ndarray]:
+    """What a work item carries from block to block on this rank, the checkpoint's content as
+    contiguous arrays in a fixed order: the :data:`ITEM_STATE` row, then each body's
+    :data:`BODY_FIELDS` (a layered field: this rank's rows). An item moved to another group
+    (:meth:`micropit_hpc.study.Study.reassign`) is sent as these and rebuilt by
+    :func:`restore_carried`."""
+    return [item_state_row(state)] + [np.ascontiguousarray(getattr(bs, f.name))
+                                      for bs in state.bodies for f in BODY_FIELDS]
+
+
+def restore_carried(state: LifeState, parts: list[np.ndarray]) -> None:
+    """Set ``state`` (in place) from the arrays of :func:`carried`."""
+    restore_item_state(state, parts[0])
+    fields = iter(parts[1:])
+    for bs in state.bodies:
+        for f in BODY_FIELDS:
+            setattr(bs, f.name, next(fields))
 
 
 @dataclass(frozen=True)

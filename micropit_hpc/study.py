@@ -2,12 +2,15 @@
 
 A work item is one (position × wear coefficient × roughness scale × patch) with a stable id
 (position-major, in that order). Ranks split into groups of ``ranks_per_item`` contiguous ranks
-(:mod:`micropit_hpc.parallel.groups`); every rank computes the same assignment and each group's
-ranks run its items together (:mod:`micropit_hpc.parallel.slab`: every rank its x-slab of the
-contact, the stresses, Dang Van and damage). After every block the
-records are gathered on every rank. Results do not depend on the number of groups: an item's
-numbers come from its own seeds and its own block loop only (bitwise); with several ranks per
-item they equal one rank's to round-off.
+(:mod:`micropit_hpc.parallel.groups`); each group's ranks run its items together
+(:mod:`micropit_hpc.parallel.slab`: every rank its x-slab of the contact, the stresses, Dang Van
+and damage). Which group runs which item (``balance``, docs/hpc.md §2): ``"dynamic"`` hands the
+first block's items out as groups free up and, before every later block, assigns them
+longest-first by the block just done, moving an item's state to its new group; ``"static"``
+keeps the first assignment (round robin, or a restart's longest-first). After every block the
+records are gathered on every rank. Results do not depend on the groups: an item's numbers come
+from its own seeds and its own block loop only (bitwise, wherever it runs and however often it
+moves); with several ranks per item they equal one rank's to round-off.
 """
 
 from __future__ import annotations
@@ -34,11 +37,14 @@ from micropit_hpc.plan import (
 from micropit_hpc.regime import block_flags
 from micropit_hpc.running_in import RunningIn, run_in
 from micropit_hpc.scene import Scene
-from micropit_hpc.state import BODY_FIELDS
+from micropit_hpc.state import BODY_FIELDS, carried, restore_carried
 from micropit_hpc.surfaces import Topography
 from micropit_hpc.surfaces.bodies import body_surface
 
 __all__ = ["SUMMARY_COLUMNS", "ItemRun", "Study", "summary_rows"]
+
+#: How the work items are spread over the groups (:class:`Study`, ``micropit run --balance``).
+BALANCE = ("dynamic", "static")
 
 #: The columns of summary.csv, in order: the keys of their declaration with units
 #: (:data:`micropit_hpc.io.results.SUMMARY_UNITS`).
@@ -131,23 +137,37 @@ class Study:
     """Run every work item of a scene on the ranks of ``comm`` (rank-group parallel).
 
     Items go round robin to the groups, or longest-first by cost through :meth:`assign` (a
-    restart uses the last block's times). The assignment never changes the numbers.
+    restart uses the last block's times); with ``balance = "dynamic"`` (more than one group)
+    the first block hands them out as groups free up instead and every later block reassigns
+    them longest-first by the block before (:meth:`reassign`). No group holds more than
+    ⌈items/groups⌉. The assignment never changes the numbers.
     """
 
     def __init__(self, scene: Scene, comm, ranks_per_item: int = 1,
                  positions: Sequence[int] | None = None,
-                 log: Callable[[str], None] | None = None, plan: Plan | None = None):
-        from micropit_hpc.parallel.groups import assign_items, split_groups
+                 log: Callable[[str], None] | None = None, plan: Plan | None = None,
+                 balance: str = "dynamic"):
+        from micropit_hpc.parallel.groups import assign_items, fair_share, split_groups
 
+        if balance not in BALANCE:
+            raise MicropitError(f"balance {balance!r}: expected one of {', '.join(BALANCE)}")
         self.scene, self.comm, self.log = scene, comm, log or (lambda s: None)
         self.plan = make_plan(scene, positions) if plan is None else plan
         self.base = self.plan.study
         self.method_b = self.plan.method_b       # ISO/TS 6336-22 Method B beside A_p
         self.items = list(self.plan.items)
         self.group = split_groups(comm, ranks_per_item)
+        self.most = fair_share(len(self.items), self.group.count)
         self.assignment = assign_items(len(self.items), self.group.count)  # round robin
         self.mine = [self.items[i] for i in self.group.items(self.assignment)]
         self.runs: dict[int, ItemRun] = {}
+        #: moving items between groups: the first block from the shared queue, later blocks
+        #: longest-first by :attr:`costs`
+        self.dynamic = balance == "dynamic" and self.group.count > 1
+        self.queued = self.dynamic          # the next block's items from the queue
+        #: each item's time in the last block run (set after every block)
+        self.costs: list[float] | None = None
+        self._told = False
         self._ra: dict[tuple[int, float], tuple[float, float]] = {}
         self.blocks = self.plan.blocks
         self.z_max = self.plan.window.z_max
@@ -158,26 +178,59 @@ class Study:
                      "its R_q and slopes are not the surface's (docs/life.md, \"The model's "
                      "range\")")
 
-    def assign(self, costs: Sequence[float]) -> None:
-        """Assign the items longest-first by ``costs`` (before :meth:`setup`)."""
+    def assign(self, costs: Sequence[float] | None) -> None:
+        """Assign the items longest-first by ``costs`` (None: round robin) before
+        :meth:`setup`, for the first block too (a restart: no queue)."""
         from micropit_hpc.parallel.groups import assign_items
 
         if self.runs:
             raise MicropitError("items can only be reassigned before setup()")
-        self.assignment = assign_items(len(self.items), self.group.count, costs)
+        self.assignment = assign_items(len(self.items), self.group.count, costs, self.most)
         self.mine = [self.items[i] for i in self.group.items(self.assignment)]
+        self.queued = False
 
     def setup(self) -> None:
-        """Build this group's items (surfaces, solvers, fresh state). Collective."""
-        for it in self.mine:
-            self.runs[it.id] = ItemRun(self.scene, it, self.base, self.log, self.group.comm,
-                                       window=self.plan.window)
-        if self.runs:   # how each measured map was read (spacing from the file or the scene)
-            first = next(iter(self.runs.values()))
+        """Build this group's items (surfaces, solvers, fresh state; none yet where the first
+        block takes them from the queue). Collective."""
+        for it in ([] if self.queued else self.mine):
+            self.runs[it.id] = self._build(it)
+
+    def _build(self, item: WorkItem, log: bool = True) -> ItemRun:
+        """A fresh run of ``item`` on this group (collective over it); ``log``: say what its
+        set-up decides (not for an item moved here, whose first group said it)."""
+        run = ItemRun(self.scene, item, self.base, self.log if log else None,
+                      self.group.comm, window=self.plan.window)
+        if not self._told:   # how each measured map was read (spacing from the file or scene)
+            self._told = True
             for i, (body, top) in enumerate(zip((self.scene.body1, self.scene.body2),
-                                                first.surfaces, strict=True), start=1):
+                                                run.surfaces, strict=True), start=1):
                 if body.surface.kind == "file":
                     self.log(f"body{i}.surface: {top.provenance}")
+        return run
+
+    def reassign(self, assignment: Sequence[Sequence[int]]) -> None:
+        """Run the items as ``assignment`` (an :func:`assign_items` result) says from now on.
+        Collective over the world. An item that changes group is rebuilt there from what it
+        carries from block to block (:func:`carried`: the checkpoint's content, so this is a
+        restart's path and changes no number), sent over by
+        :func:`~micropit_hpc.parallel.groups.move_items`."""
+        from micropit_hpc.parallel.groups import move_items
+
+        arrived = {}
+
+        def receive(i: int) -> list[np.ndarray]:
+            run = self._build(self.items[i], log=False)
+            arrived[i] = (run, [np.empty_like(a) for a in carried(run.state)])
+            return arrived[i][1]
+
+        new = [sorted(ids) for ids in assignment]
+        move_items(self.group, self.assignment, new,
+                   lambda i: carried(self.runs.pop(self.items[i].id).state), receive)
+        for i, (run, parts) in arrived.items():
+            restore_carried(run.state, parts)
+            self.runs[self.items[i].id] = run
+        self.assignment = new
+        self.mine = [self.items[i] for i in self.group.items(new)]
 
     def block_cycles(self, k: int) -> float:
         """Cycles of block k (1-based): ΔN, the last block shortened so that the blocks add up
@@ -188,30 +241,59 @@ class Study:
                   ) -> dict[int, BlockRecord]:
         """Block k of every item of this group; returns {item id: record} on every rank of
         the world, gathered in item order. ``on_progress(k, item, i, n, cycles_done,
-        block_cycles, sub_block, step, steps)``: called on every rank of this group after
-        every time step (item: the :class:`WorkItem`, i-th of this group's n items)."""
+        block_cycles, sub_block, step, steps, queued)``: called on every rank of this group
+        after every time step (item: the :class:`WorkItem`, i-th of this group's n items, or,
+        ``queued``, the i-th handed out of the block's n).
+        With ``balance = "dynamic"`` the items are first reassigned by the last block's
+        times (:meth:`reassign`), or, in the first block, taken from the queue."""
         local = {}
-        for i, it in enumerate(self.mine):
-            hook = None if on_progress is None else (
-                lambda *a, it=it, i=i: on_progress(k, it, i, len(self.mine), *a))
-            try:
-                rec = self.runs[it.id].run_block(self.block_cycles(k), hook)
-            except MicropitError as e:   # say which item failed: the scene may hold dozens
-                err = MicropitError(
-                    f"{self.scene.source}: item {it.id} (position {it.position}, k_lub "
-                    f"{it.k_lub:g} s, roughness × {it.scale:g}, patch {it.patch}), block {k}: "
-                    f"{e}")
-                # the ranks of a group mostly meet an item's error together: the group root
-                # reports it, the others leave it the time to (micropit_hpc.parallel.failure)
-                err.group_member = self.group.comm.size > 1 and not self.group.is_root
-                raise err from e
-            if self.group.is_root:
-                local[it.id] = rec
-        gathered = self.comm.allgather(local)
+        if self.queued:        # the items as groups free up (parallel.groups.ItemQueue)
+            from micropit_hpc.parallel.groups import ItemQueue
+
+            queue = ItemQueue(self.group, len(self.items), self.most)
+            self.mine = []
+            while (q := queue.take()) is not None:
+                it = self.items[q]
+                self.runs[it.id] = self._build(it)
+                self.mine.append(it)
+                local[it.id] = self._run_item(k, it, q, len(self.items), on_progress, True)
+            queue.close()
+        else:
+            if self.dynamic and self.costs is not None:
+                from micropit_hpc.parallel.groups import assign_items
+
+                self.reassign(assign_items(len(self.items), self.group.count, self.costs,
+                                           self.most))
+            for i, it in enumerate(self.mine):
+                local[it.id] = self._run_item(k, it, i, len(self.mine), on_progress)
+        gathered = self.comm.allgather((self.group.index, local if self.group.is_root else {}))
         out: dict[int, BlockRecord] = {}
-        for part in gathered:
+        for _, part in gathered:
             out.update(part)
+        if self.queued:        # who ran what: where each item's state now lives
+            self.assignment = [[] for _ in range(self.group.count)]
+            for g, part in gathered:
+                self.assignment[g] += sorted(part)
+            self.queued = False
+        self.costs = [out[it.id].wall_s for it in self.items]
         return dict(sorted(out.items()))
+
+    def _run_item(self, k: int, it: WorkItem, i: int, n: int, on_progress, queued=False
+                  ) -> BlockRecord:
+        """Block k of item ``it``, the i-th of n (of this group's, or of the ``queued``)."""
+        hook = None if on_progress is None else (
+            lambda *a: on_progress(k, it, i, n, *a, queued))
+        try:
+            return self.runs[it.id].run_block(self.block_cycles(k), hook)
+        except MicropitError as e:   # say which item failed: the scene may hold dozens
+            err = MicropitError(
+                f"{self.scene.source}: item {it.id} (position {it.position}, k_lub "
+                f"{it.k_lub:g} s, roughness × {it.scale:g}, patch {it.patch}), block {k}: "
+                f"{e}")
+            # the ranks of a group mostly meet an item's error together: the group root
+            # reports it, the others leave it the time to (micropit_hpc.parallel.failure)
+            err.group_member = self.group.comm.size > 1 and not self.group.is_root
+            raise err from e
 
     def item_lambda(self, item: WorkItem) -> float:
         return self.plan.item_lambda(item)

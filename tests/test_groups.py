@@ -7,7 +7,13 @@ import pytest
 
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.parallel import SerialComm
-from micropit_hpc.parallel.groups import assign_items, split_groups
+from micropit_hpc.parallel.groups import (
+    ItemQueue,
+    assign_items,
+    fair_share,
+    move_items,
+    split_groups,
+)
 
 
 class RecordingComm:
@@ -82,6 +88,18 @@ def test_greedy_assignment_covers_every_item_once_and_balances():
     assert groups == assign_items(200, 7, list(costs))  # pure: same input, same answer
 
 
+def test_no_group_holds_more_than_its_share():
+    # one heavy item and many light ones: unlimited, the light ones all go to the other group
+    costs = [10.0] + [1.0] * 9
+    assert assign_items(10, 2, costs) == [[0], list(range(1, 10))]
+    capped = assign_items(10, 2, costs, most=fair_share(10, 2))
+    assert [len(g) for g in capped] == [5, 5] and capped[0][0] == 0
+    assert sorted(i for g in capped for i in g) == list(range(10))
+    assert fair_share(33, 2) == 17 and fair_share(4, 2) == 2 and fair_share(1, 3) == 1
+    with pytest.raises(MicropitError, match="do not fit 2 groups of at most 4"):
+        assign_items(10, 2, costs, most=4)
+
+
 @pytest.mark.parametrize("n,groups,costs,text", [(3, 0, None, "at least 1"),
                                                  (-1, 2, None, "negative"),
                                                  (3, 2, [1.0, 2.0], "need 3 costs"),
@@ -118,3 +136,70 @@ def test_groups_on_mpi_ranks():
     assert all_ranks_agree(world, ok)
     with pytest.raises(MicropitError, match="multiple"):
         split_groups(world, size + 1)
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.timeout(60)
+def test_the_item_queue_hands_every_item_out_once():
+    """Groups that take items at different speeds: every item goes out once, to whichever group
+    asks, none to a group beyond its share; then None for good (docs/hpc.md §2)."""
+    import time
+
+    from mpi4py import MPI
+
+    world = MPI.COMM_WORLD
+    ok = True
+    for per_item, n in ((1, 7), (1, 1), (world.size, 5)):
+        group = split_groups(world, per_item)
+        most = fair_share(n, group.count)
+        queue = ItemQueue(group, n, most)
+        taken = []
+        while (q := queue.take()) is not None:
+            taken.append(q)
+            time.sleep(0.01 * (1 + group.index))     # the groups free up at other times
+        ok = ok and queue.take() is None and len(taken) <= most
+        queue.close()
+        # every rank of a group saw the same items; every item went to exactly one group
+        ok = ok and all(t == taken for t in group.comm.allgather(taken))
+        roots = world.allgather(taken if group.is_root else [])
+        ok = ok and sorted(i for t in roots for i in t) == list(range(n))
+        ok = ok and all(t == sorted(t) for t in roots)
+        group.free()
+    assert all_ranks_agree(world, ok)
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.timeout(60)
+def test_items_that_change_group_arrive_whole_and_the_rest_stay():
+    """move_items: each moved item's arrays (floats, a bool mask, a row) reach rank j of its new
+    group from rank j of its old one, unchanged; items that keep their group are not asked."""
+    from mpi4py import MPI
+
+    world = MPI.COMM_WORLD
+    group = split_groups(world, 1)
+    n = 2 * group.count + 1
+    old = assign_items(n, group.count)
+    # every item one group on, but item 0, which stays
+    new = [[i for i in range(n) if (0 if i == 0 else (i + 1) % group.count) == g]
+           for g in range(group.count)]
+
+    def arrays(i):
+        return [np.full((3, 4), float(i)), np.arange(5) % (i + 2) == 0, np.array([i, -i])]
+
+    given, got = [], {}
+
+    def give(i):
+        given.append(i)
+        return arrays(i)
+
+    def receive(i):
+        got[i] = [np.empty_like(a) for a in arrays(i)]
+        return got[i]
+
+    move_items(group, old, new, give, receive)
+    ok = sorted(given) == sorted(i for i in old[group.index] if i not in new[group.index])
+    ok = ok and sorted(got) == sorted(i for i in new[group.index] if i not in old[group.index])
+    ok = ok and all(a.dtype == b.dtype and np.array_equal(a, b) for i in got
+                    for a, b in zip(got[i], arrays(i), strict=True))
+    group.free()
+    assert all_ranks_agree(world, ok)
