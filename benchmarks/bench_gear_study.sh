@@ -7,6 +7,7 @@
 #   bash benchmarks/bench_gear_study.sh            # NPS="1 2" CYCLES_M=3 OUT=runs/bench_gear_study
 #   NPS=2 bash benchmarks/bench_gear_study.sh      # the 10-minute target alone
 #   RPI=2 NPS=2 POSITIONS="3" bash ...             # one position, 2 ranks per item (slabs)
+#   BALANCE=static NPS=2 bash ...                  # items round robin (default: dynamic)
 #
 # Prints one line per run: ranks, ranks per item, items, wall [s], efficiency against the
 # first run, and the share of the blocks stage spent in the contact, stress (FFT) and Dang
@@ -18,6 +19,7 @@ py=$(bash scripts/setup.sh)
 source scripts/mpi-env.sh
 nps=${NPS:-"1 2"}
 rpi=${RPI:-1}
+balance=${BALANCE:-dynamic}
 cycles=${CYCLES_M:-3.0}
 out=${OUT:-runs/bench_gear_study}
 mkdir -p "$out"
@@ -33,7 +35,7 @@ for np in $nps; do
     rm -rf "$dir"
     t0=$(date +%s.%N)
     mpirun -n "$np" "$py" -m micropit_hpc run "$scene" --out "$dir" --ranks-per-item "$rpi" \
-        "${posargs[@]}" -log_view ":$dir.profile.txt" > "$dir.log" 2>&1 \
+        --balance "$balance" "${posargs[@]}" -log_view ":$dir.profile.txt" > "$dir.log" 2>&1 \
         || { echo "bench_gear_study: run on $np ranks failed, see $dir.log" >&2; tail "$dir.log" >&2; exit 1; }
     t1=$(date +%s.%N)
     mv "$dir.profile.txt" "$dir/profile.txt"

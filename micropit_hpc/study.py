@@ -4,10 +4,10 @@ A work item is one (position × wear coefficient × roughness scale × patch) wi
 (position-major, in that order). Ranks split into groups of ``ranks_per_item`` contiguous ranks
 (:mod:`micropit_hpc.parallel.groups`); each group's ranks run its items together
 (:mod:`micropit_hpc.parallel.slab`: every rank its x-slab of the contact, the stresses, Dang Van
-and damage). Which group runs which item (``balance``, docs/hpc.md §2): ``"dynamic"`` hands the
-first block's items out as groups free up and, before every later block, assigns them
-longest-first by the block just done, moving an item's state to its new group; ``"static"``
-keeps the first assignment (round robin, or a restart's longest-first). After every block the
+and damage). Which group runs which item (``balance``, docs/hpc.md §2): ``"dynamic"`` hands
+every block's items out as groups free up (later blocks longest first by the block before),
+an item's state going with it to the group that takes it; ``"static"`` keeps the first
+assignment (round robin, or a restart's longest-first). After every block the
 records are gathered on every rank. Results do not depend on the groups: an item's numbers come
 from its own seeds and its own block loop only (bitwise, wherever it runs and however often it
 moves); with several ranks per item they equal one rank's to round-off.
@@ -45,6 +45,10 @@ __all__ = ["SUMMARY_COLUMNS", "ItemRun", "Study", "summary_rows"]
 
 #: How the work items are spread over the groups (:class:`Study`, ``micropit run --balance``).
 BALANCE = ("dynamic", "static")
+#: ``balance = "dynamic"`` hands out every block's items as groups free up while what every
+#: item carries (:func:`~micropit_hpc.state.carried`) fits this on every rank; beyond it, the
+#: items are moved longest-first by the last block's times (:meth:`Study.reassign`).
+SHARE_BYTES = 256 * 2 ** 20
 
 #: The columns of summary.csv, in order: the keys of their declaration with units
 #: (:data:`micropit_hpc.io.results.SUMMARY_UNITS`).
@@ -138,9 +142,10 @@ class Study:
 
     Items go round robin to the groups, or longest-first by cost through :meth:`assign` (a
     restart uses the last block's times); with ``balance = "dynamic"`` (more than one group)
-    the first block hands them out as groups free up instead and every later block reassigns
-    them longest-first by the block before (:meth:`reassign`). No group holds more than
-    ⌈items/groups⌉. The assignment never changes the numbers.
+    every block hands them out as groups free up instead (:meth:`_run_queued`; where the
+    items' states are too large to share, later blocks reassign them longest-first by the
+    block before, :meth:`reassign`). No group holds more than ⌈items/groups⌉. The assignment
+    never changes the numbers.
     """
 
     def __init__(self, scene: Scene, comm, ranks_per_item: int = 1,
@@ -244,39 +249,76 @@ class Study:
         block_cycles, sub_block, step, steps, queued)``: called on every rank of this group
         after every time step (item: the :class:`WorkItem`, i-th of this group's n items, or,
         ``queued``, the i-th handed out of the block's n).
-        With ``balance = "dynamic"`` the items are first reassigned by the last block's
-        times (:meth:`reassign`), or, in the first block, taken from the queue."""
-        local = {}
-        if self.queued:        # the items as groups free up (parallel.groups.ItemQueue)
-            from micropit_hpc.parallel.groups import ItemQueue
+        With ``balance = "dynamic"`` the groups take the items from a queue (after the
+        first block, longest first by the last block's times, the states shared:
+        :meth:`_share`), or, where the states are too large to share, the items are first
+        reassigned by those times (:meth:`reassign`)."""
+        from micropit_hpc.parallel.groups import assign_items
 
-            queue = ItemQueue(self.group, len(self.items), self.most)
-            self.mine = []
-            while (q := queue.take()) is not None:
-                it = self.items[q]
-                self.runs[it.id] = self._build(it)
-                self.mine.append(it)
-                local[it.id] = self._run_item(k, it, q, len(self.items), on_progress, True)
-            queue.close()
-        else:
-            if self.dynamic and self.costs is not None:
-                from micropit_hpc.parallel.groups import assign_items
-
+        local, queue = {}, None
+        if self.queued:                     # the first block: in item order, nothing held
+            queue = (range(len(self.items)), {})
+        elif self.dynamic and self.costs is not None:
+            copies = self._share()
+            if copies is None:              # too large to share: moved longest-first
                 self.reassign(assign_items(len(self.items), self.group.count, self.costs,
                                            self.most))
+            else:                           # longest first, by the last block's times
+                queue = (np.lexsort((np.arange(len(self.items)), -np.asarray(self.costs))),
+                         copies)
+        if queue is not None:
+            local = self._run_queued(k, on_progress, *queue)
+        else:
             for i, it in enumerate(self.mine):
                 local[it.id] = self._run_item(k, it, i, len(self.mine), on_progress)
         gathered = self.comm.allgather((self.group.index, local if self.group.is_root else {}))
         out: dict[int, BlockRecord] = {}
         for _, part in gathered:
             out.update(part)
-        if self.queued:        # who ran what: where each item's state now lives
+        if queue is not None:               # who ran what: where each item's state now lives
             self.assignment = [[] for _ in range(self.group.count)]
             for g, part in gathered:
                 self.assignment[g] += sorted(part)
             self.queued = False
         self.costs = [out[it.id].wall_s for it in self.items]
         return dict(sorted(out.items()))
+
+    def _share(self) -> dict[int, list] | None:
+        """What every item carries (:func:`carried`), on every group (rank j of each from rank
+        j of the item's), or None where that would hold more than :data:`SHARE_BYTES` per
+        rank. Collective over the world."""
+        from micropit_hpc.parallel.groups import share_items
+
+        held = {i.id: carried(self.runs[i.id].state) for i in self.mine}
+        size = sum(a.nbytes for parts in held.values() for a in parts)
+        if self.comm.allreduce(size) > SHARE_BYTES * self.group.size:
+            return None
+        return share_items(self.group, held)
+
+    def _run_queued(self, k: int, on_progress, order, copies: dict[int, list]
+                    ) -> dict[int, BlockRecord]:
+        """Block k of the items this group takes from the queue in ``order``
+        (:class:`~micropit_hpc.parallel.groups.ItemQueue`): an item it does not hold is built
+        here and, after the first block, set from its shared ``copies`` (:meth:`_share`); the
+        items it held and another group ran are dropped."""
+        from micropit_hpc.parallel.groups import ItemQueue
+
+        queue = ItemQueue(self.group, len(self.items), self.most, order)
+        local, runs, self.mine = {}, {}, []
+        while (taken := queue.take()) is not None:
+            it = self.items[taken[0]]
+            run = self.runs.get(it.id)
+            if run is None:
+                run = self._build(it, log=not copies)
+                if copies:
+                    restore_carried(run.state, copies[it.id])
+            runs[it.id] = self.runs[it.id] = run
+            self.mine.append(it)
+            local[it.id] = self._run_item(k, it, taken[1], len(self.items), on_progress, True)
+        queue.close()
+        self.runs = runs
+        self.mine.sort(key=lambda it: it.id)
+        return local
 
     def _run_item(self, k: int, it: WorkItem, i: int, n: int, on_progress, queued=False
                   ) -> BlockRecord:

@@ -12,6 +12,7 @@ from micropit_hpc.parallel.groups import (
     assign_items,
     fair_share,
     move_items,
+    share_items,
     split_groups,
 )
 
@@ -149,21 +150,25 @@ def test_the_item_queue_hands_every_item_out_once():
 
     world = MPI.COMM_WORLD
     ok = True
-    for per_item, n in ((1, 7), (1, 1), (world.size, 5)):
+    for per_item, n, order in ((1, 7, None), (1, 1, None), (world.size, 5, None),
+                               (1, 6, [4, 0, 5, 2, 1, 3])):
         group = split_groups(world, per_item)
         most = fair_share(n, group.count)
-        queue = ItemQueue(group, n, most)
+        queue = ItemQueue(group, n, most, order)
         taken = []
-        while (q := queue.take()) is not None:
-            taken.append(q)
+        while (got := queue.take()) is not None:
+            taken.append(got)
             time.sleep(0.01 * (1 + group.index))     # the groups free up at other times
         ok = ok and queue.take() is None and len(taken) <= most
         queue.close()
-        # every rank of a group saw the same items; every item went to exactly one group
+        # every rank of a group saw the same items; every item went to exactly one group,
+        # each group's in the order given, with its place in that order
         ok = ok and all(t == taken for t in group.comm.allgather(taken))
         roots = world.allgather(taken if group.is_root else [])
-        ok = ok and sorted(i for t in roots for i in t) == list(range(n))
-        ok = ok and all(t == sorted(t) for t in roots)
+        seq = list(range(n)) if order is None else order
+        ok = ok and sorted(i for t in roots for i, _ in t) == list(range(n))
+        ok = ok and all(i == seq[q] for t in roots for i, q in t)
+        ok = ok and all([q for _, q in t] == sorted(q for _, q in t) for t in roots)
         group.free()
     assert all_ranks_agree(world, ok)
 
@@ -202,4 +207,26 @@ def test_items_that_change_group_arrive_whole_and_the_rest_stay():
     ok = ok and all(a.dtype == b.dtype and np.array_equal(a, b) for i in got
                     for a, b in zip(got[i], arrays(i), strict=True))
     group.free()
+    assert all_ranks_agree(world, ok)
+
+
+@pytest.mark.mpi(min_size=2)
+@pytest.mark.timeout(60)
+def test_every_group_gets_every_items_arrays_from_the_same_rank_of_its_group():
+    """share_items: rank j of every group ends with each item's arrays as rank j of the group
+    that holds it gave them (groups of one rank, and one group of every rank)."""
+    from mpi4py import MPI
+
+    world = MPI.COMM_WORLD
+    ok = True
+    for per_item in (1, world.size):
+        group = split_groups(world, per_item)
+        n = 2 * group.count + 1
+        mine = assign_items(n, group.count)[group.index]
+        held = {i: [np.full(3, 10.0 * i + group.comm.rank), np.arange(4) < i] for i in mine}
+        got = share_items(group, held)
+        ok = ok and sorted(got) == list(range(n))
+        ok = ok and all(np.array_equal(got[i][0], np.full(3, 10.0 * i + group.comm.rank))
+                        and np.array_equal(got[i][1], np.arange(4) < i) for i in got)
+        group.free()
     assert all_ranks_agree(world, ok)

@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from helpers import tiny_doc, write_scene
 
+import micropit_hpc.study as study_mod
 from micropit_hpc.cli import main
 from micropit_hpc.parallel import SerialComm
 from micropit_hpc.plan import work_items
@@ -132,13 +133,14 @@ def test_one_and_two_ranks_give_bitwise_equal_records(tmp_path_factory):
 def test_items_moved_between_groups_keep_their_numbers_bit_for_bit():
     """The dynamic balance (docs/hpc.md §2): block 1's items from the queue, block 2 after
     every item has moved to another group (:meth:`Study.reassign`, forced: the items swapped
-    between the groups), block 3 reassigned by block 2's times, equal one rank's run bit
-    for bit, records and final maps."""
+    between the groups), blocks 3 and 4 from the queue with the states shared, block 5 moved
+    longest-first (the share refused), equal one rank's run bit for bit, records and final
+    maps."""
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
     doc = tiny_doc(slide_roll=(0.15, 0.3), k_lub=(0.0, 1e-10))
-    doc["life"]["cycles_M"] = 3.0
+    doc["life"]["cycles_M"] = 5.0
     scene = scene_from_dict(doc, "tiny.toml")
     par = Study(scene, comm)
     par.setup()
@@ -152,11 +154,21 @@ def test_items_moved_between_groups_keep_their_numbers_bit_for_bit():
     ok = ok and sorted(par.runs) == swapped[par.group.index]
     par.costs = None                    # block 2 as swapped; block 3 by block 2's times
     recs_par += [par.run_block(k) for k in (2, 3)]
+    # block 4 again from the queue, with the items' states shared over the groups, and block 5
+    # moved (the share too large)
+    recs_par.append(par.run_block(4))
+    ok = ok and sorted(i for g in par.assignment for i in g) == [0, 1, 2, 3]
+    ok = ok and sorted(par.runs) == par.assignment[par.group.index]
+    study_mod.SHARE_BYTES, kept = 0, study_mod.SHARE_BYTES
+    try:
+        recs_par.append(par.run_block(5))
+    finally:
+        study_mod.SHARE_BYTES = kept
     maps_par = par.gather_maps()
     if comm.rank == 0:
         ser = Study(scene, SerialComm())
         ser.setup()
-        recs_ser = [ser.run_block(k) for k in (1, 2, 3)]
+        recs_ser = [ser.run_block(k) for k in (1, 2, 3, 4, 5)]
         maps_ser = ser.gather_maps()
 
         def strip(recs):                 # everything but the wall time

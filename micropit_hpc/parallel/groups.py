@@ -146,19 +146,33 @@ def move_items(group: Group, old: Sequence[Sequence[int]], new: Sequence[Sequenc
         r.Wait()
 
 
-class ItemQueue:
-    """The work items of a block handed out one at a time, in item order, to whichever group
-    asks first, none to a group that holds ``most`` of them: a counter on world rank 0 that a
-    group root advances with MPI's one-sided atomic fetch-and-add (passive target, so no rank
-    waits for another to answer; across nodes an MPI without hardware atomics may answer only
-    when rank 0 next enters MPI), the value broadcast to the rest of its group. Creating and
-    :meth:`close` are collective over the world; :meth:`take` over the group. Needs mpi4py
-    (more than one group)."""
+def share_items(group: Group, held: dict[int, list[np.ndarray]]) -> dict[int, list]:
+    """Every group's ``held`` {item: arrays} on rank j of every group, from rank j of the group
+    that holds the item (collective over the world: an allgather over the ranks j)."""
+    column = group.world.Split(color=group.comm.rank, key=group.index)
+    parts = column.allgather(held)
+    column.Free()
+    out: dict[int, list] = {}
+    for part in parts:
+        out.update(part)
+    return out
 
-    def __init__(self, group: Group, n_items: int, most: int):
+
+class ItemQueue:
+    """The work items of a block handed out one at a time, in the given ``order`` (default:
+    item order), to whichever group asks first, none to a group that holds ``most`` of them:
+    a counter on world rank 0 that a group root advances with MPI's one-sided atomic
+    fetch-and-add (passive target, so no rank waits for another to answer; across nodes an MPI
+    without hardware atomics may answer only when rank 0 next enters MPI), the value
+    broadcast to the rest of its group. Creating and :meth:`close` are collective over the
+    world; :meth:`take` over the group. Needs mpi4py (more than one group)."""
+
+    def __init__(self, group: Group, n_items: int, most: int,
+                 order: Sequence[int] | None = None):
         from mpi4py import MPI
 
         self._mpi, self.group, self.n, self.most, self.taken = MPI, group, n_items, most, 0
+        self.order = list(range(n_items)) if order is None else list(order)
         world = group.world
         self._win = MPI.Win.Allocate(8 if world.rank == 0 else 0, 8, comm=world)
         if world.rank == 0:
@@ -167,9 +181,9 @@ class ItemQueue:
             self._win.Unlock(0)
         world.Barrier()
 
-    def take(self) -> int | None:
-        """The next item's index, or None once every item is out or this group holds
-        ``most``. Collective over the group."""
+    def take(self) -> tuple[int, int] | None:
+        """(the next item, its place in the order), or None once every item is out or this
+        group holds ``most``. Collective over the group."""
         q = None
         if self.group.is_root and self.taken < self.most:
             got = np.zeros(1, np.int64)
@@ -178,9 +192,10 @@ class ItemQueue:
             self._win.Unlock(0)
             q = int(got[0]) if got[0] < self.n else None
         q = self.group.comm.bcast(q, root=0)
-        if q is not None:
-            self.taken += 1
-        return q
+        if q is None:
+            return None
+        self.taken += 1
+        return self.order[q], q
 
     def close(self) -> None:
         """Free the counter (collective over the world)."""
