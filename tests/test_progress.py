@@ -124,6 +124,19 @@ def test_block_fraction_counts_items_and_cycles_inside_the_block():
     assert block_fraction(2, 0, 1, 2e6, 1e6) == pytest.approx(2.0)      # clipped to the block
 
 
+def test_an_item_from_the_queue_is_placed_among_the_blocks_items():
+    """With --balance dynamic a group's items come from the shared queue (docs/hpc.md §2): the
+    report places the item among the block's items as handed out, not among the rank's."""
+    from micropit_hpc.plan import WorkItem
+    from micropit_hpc.progress import inside_note
+
+    item = WorkItem(26, 9, 5e-11, 1.0, 0)
+    args = (2, item, 26, 33, 0.5e6, 1e6, 3, 4, 62)
+    assert ("item 26 (position 9), 27 of 33 handed out, sub-block 3, 0.5 of 1 M cycles, "
+            "step 4/62") in inside_note(*args, True)
+    assert "27 of 33 on this rank, " in inside_note(*args)
+
+
 def test_fractional_progress_shows_two_decimals_and_an_eta_once_it_means_something():
     """No ETA before the run has done a whole block: a quarter of the first block extrapolated
     (start-up included) said "ETA 2:44:38" on the first line of a 24 s run."""
