@@ -244,6 +244,24 @@ class Plan:
         """Λ of an item: its position's, over its roughness scale."""
         return self.conditions(item.position).Lambda / item.scale
 
+    def queue_order(self) -> list[int]:
+        """The order in which the dynamic balance hands out a block's items, the likely
+        costliest first (indices into :attr:`items`). The key, without fitted weights: the
+        wear coefficient k_lub (an item with wear also runs the implicit wear's contact-only
+        load cycles, more of them the faster it wears), then the surfaces' relative slip
+        over the transit 2b|S| (the load cycle's time steps and the wear rate grow with it),
+        then the roughness scale, then the item's id. Started in this order, the costliest
+        items no longer start last and leave one group to finish them alone; a measured
+        block's times predict the next block's worse than this key does, as items' costs
+        change from block to block (docs/hpc.md §2, "Level 1"; the replay of a study's times
+        in docs/performance.md §3)."""
+        def key(i: int):
+            it = self.items[i]
+            c = self.conditions(it.position)
+            return (-it.k_lub, -2.0 * c.b * abs(c.S), -it.scale, it.id)
+
+        return sorted(range(len(self.items)), key=key)
+
 
 def make_plan(scene: Scene, positions: Sequence[int] | None = None, *,
               life: bool = True) -> Plan:

@@ -142,10 +142,11 @@ class Study:
 
     Items go round robin to the groups, or longest-first by cost through :meth:`assign` (a
     restart uses the last block's times); with ``balance = "dynamic"`` (more than one group)
-    every block hands them out as groups free up instead (:meth:`_run_queued`; where the
-    items' states are too large to share, later blocks reassign them longest-first by the
-    block before, :meth:`reassign`). No group holds more than ⌈items/groups⌉. The assignment
-    never changes the numbers.
+    every block hands them out as groups free up instead, the likely costliest first
+    (:meth:`_run_queued`, :meth:`Plan.queue_order <micropit_hpc.plan.Plan.queue_order>`;
+    where the items' states are too large to share, later blocks reassign them longest-first
+    by the block before, :meth:`reassign`). No group holds more than ⌈items/groups⌉. The
+    assignment never changes the numbers.
     """
 
     def __init__(self, scene: Scene, comm, ranks_per_item: int = 1,
@@ -166,8 +167,8 @@ class Study:
         self.assignment = assign_items(len(self.items), self.group.count)  # round robin
         self.mine = [self.items[i] for i in self.group.items(self.assignment)]
         self.runs: dict[int, ItemRun] = {}
-        #: moving items between groups: the first block from the shared queue, later blocks
-        #: longest-first by :attr:`costs`
+        #: moving items between groups: every block from the shared queue (or, states too
+        #: large to share, later blocks reassigned longest-first by :attr:`costs`)
         self.dynamic = balance == "dynamic" and self.group.count > 1
         self.queued = self.dynamic          # the next block's items from the queue
         #: each item's time in the last block run (set after every block)
@@ -249,23 +250,23 @@ class Study:
         block_cycles, sub_block, step, steps, queued)``: called on every rank of this group
         after every time step (item: the :class:`WorkItem`, i-th of this group's n items, or,
         ``queued``, the i-th handed out of the block's n).
-        With ``balance = "dynamic"`` the groups take the items from a queue (after the
-        first block, longest first by the last block's times, the states shared:
-        :meth:`_share`), or, where the states are too large to share, the items are first
-        reassigned by those times (:meth:`reassign`)."""
+        With ``balance = "dynamic"`` the groups take the items from a queue, likely costliest
+        first (:meth:`Plan.queue_order <micropit_hpc.plan.Plan.queue_order>`; after the first
+        block the states shared: :meth:`_share`), or, where the states are too large to share,
+        the items are first reassigned longest-first by the last block's times
+        (:meth:`reassign`)."""
         from micropit_hpc.parallel.groups import assign_items
 
         local, queue = {}, None
-        if self.queued:                     # the first block: in item order, nothing held
-            queue = (range(len(self.items)), {})
+        if self.queued:                     # the first block: nothing held yet
+            queue = (self.plan.queue_order(), {})
         elif self.dynamic and self.costs is not None:
             copies = self._share()
             if copies is None:              # too large to share: moved longest-first
                 self.reassign(assign_items(len(self.items), self.group.count, self.costs,
                                            self.most))
-            else:                           # longest first, by the last block's times
-                queue = (np.lexsort((np.arange(len(self.items)), -np.asarray(self.costs))),
-                         copies)
+            else:
+                queue = (self.plan.queue_order(), copies)
         if queue is not None:
             local = self._run_queued(k, on_progress, *queue)
         else:

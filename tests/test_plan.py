@@ -8,6 +8,7 @@ import tomllib
 
 import numpy as np
 import pytest
+from helpers import SCENES
 
 from micropit_hpc.cli import main
 from micropit_hpc.conditions import contact_study
@@ -15,7 +16,7 @@ from micropit_hpc.cycle import PositionCycle
 from micropit_hpc.errors import MicropitError, SceneError
 from micropit_hpc.mechanics.halfspace import depth_layers
 from micropit_hpc.plan import LEVELS, Window, make_plan, work_items
-from micropit_hpc.scene import scene_from_dict
+from micropit_hpc.scene import load_scene, scene_from_dict
 
 DOC = {
     "study": {"name": "plan", "patches": 2},
@@ -64,6 +65,34 @@ def test_the_plan_holds_conditions_window_items_levels_and_blocks():
     assert plan.blocks == 3 and plan.block_cycles(3) == 0.5e6
     assert plan.item_lambda(plan.items[0]) == study.conditions[0].Lambda
     assert plan.window_problems == ()
+
+
+def test_the_queue_hands_out_the_wear_and_the_slip_first():
+    """Plan.queue_order (the dynamic balance's order, docs/hpc.md §2): k_lub first, then the
+    transit's slip 2b|S|, then the roughness scale, then the id; every item once."""
+    scene = scene_from_dict(_doc(**{"disc.slide_roll": [0.0, 0.3, 0.1],
+                                    "wear.k_lub_s": [0.0, 5e-11, 1e-11],
+                                    "study.roughness_scale": [1.0, 2.0]}), "plan.toml")
+    plan = make_plan(scene)
+    order = plan.queue_order()
+    assert sorted(order) == list(range(len(plan.items))) == [it.id for it in plan.items]
+
+    def slip(it):
+        c = plan.conditions(it.position)
+        return 2.0 * c.b * abs(c.S)
+
+    keys = [(-it.k_lub, -slip(it), -it.scale, it.id) for it in (plan.items[i] for i in order)]
+    assert keys == sorted(keys)
+    assert order != list(range(len(plan.items)))
+    first, last = plan.items[order[0]], plan.items[order[-1]]
+    assert (first.k_lub, first.position, first.scale, first.patch) == (5e-11, 2, 2.0, 0)
+    assert (last.k_lub, last.position, last.scale, last.patch) == (0.0, 1, 1.0, 1)
+    # the paper gear (2 patches): the items at 5e-11 s of the four positions with the most
+    # slip (2, 3, 9, 10: 62–66 time steps) go out first; the two costliest of the measured
+    # block 1 (docs/performance.md §3) are among them
+    gear = make_plan(load_scene(SCENES / "paper_gear_z23.toml"))
+    top = {(gear.items[i].position, gear.items[i].k_lub) for i in gear.queue_order()[:8]}
+    assert top == {(p, 5e-11) for p in (2, 3, 9, 10)}
 
 
 def test_the_window_is_read_only_and_is_the_cycles():

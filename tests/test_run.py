@@ -145,7 +145,13 @@ def test_items_moved_between_groups_keep_their_numbers_bit_for_bit():
     par = Study(scene, comm)
     par.setup()
     ok = par.queued and not par.runs
-    recs_par = [par.run_block(1)]
+    placed = {}                         # (block, place in the queue) → the item handed out
+
+    def record(k, item, i, n, *rest):
+        if rest[-1]:                    # queued
+            placed[k, i] = item.id
+
+    recs_par = [par.run_block(1, record)]
     before = [list(g) for g in par.assignment]
     ok = ok and sorted(i for g in before for i in g) == [0, 1, 2, 3] and not par.queued
     ok = ok and sorted(par.runs) == before[par.group.index]
@@ -153,10 +159,18 @@ def test_items_moved_between_groups_keep_their_numbers_bit_for_bit():
     par.reassign(swapped)
     ok = ok and sorted(par.runs) == swapped[par.group.index]
     par.costs = None                    # block 2 as swapped; block 3 by block 2's times
-    recs_par += [par.run_block(k) for k in (2, 3)]
+    recs_par += [par.run_block(k, record) for k in (2, 3)]
     # block 4 again from the queue, with the items' states shared over the groups, and block 5
     # moved (the share too large)
-    recs_par.append(par.run_block(4))
+    recs_par.append(par.run_block(4, record))
+    # the queue handed out every item of blocks 1, 3 and 4 in the plan's order (the likely
+    # costliest first, not item order), and none of block 2's
+    everywhere = {}
+    for part in comm.allgather(placed):
+        everywhere.update(part)
+    order = par.plan.queue_order()
+    ok = ok and order != sorted(order) and everywhere == {
+        (k, i): order[i] for k in (1, 3, 4) for i in range(len(order))}
     ok = ok and sorted(i for g in par.assignment for i in g) == [0, 1, 2, 3]
     ok = ok and sorted(par.runs) == par.assignment[par.group.index]
     study_mod.SHARE_BYTES, kept = 0, study_mod.SHARE_BYTES
