@@ -158,7 +158,7 @@ def test_items_moved_between_groups_keep_their_numbers_bit_for_bit():
     swapped = [before[(g + 1) % len(before)] for g in range(len(before))]
     par.reassign(swapped)
     ok = ok and sorted(par.runs) == swapped[par.group.index]
-    par.costs = None                    # block 2 as swapped; block 3 by block 2's times
+    par.costs = None                    # block 2 as swapped; block 3 from the queue again
     recs_par += [par.run_block(k, record) for k in (2, 3)]
     # block 4 again from the queue, with the items' states shared over the groups, and block 5
     # moved (the share too large)
