@@ -395,9 +395,9 @@ def build_parser() -> argparse.ArgumentParser:
                         "(default 1: items spread over all ranks)")
     p.add_argument("--balance", choices=("dynamic", "static"), default="dynamic",
                    help="how items are spread over the groups of ranks: dynamic (default) "
-                        "hands every block's items out as groups free up (later blocks "
-                        "longest first by the last block's times), moving items' states "
-                        "between groups; static keeps round robin (a restart: "
+                        "hands every block's items out as groups free up, the likely "
+                        "costliest first (by k_lub, then the slip over the transit), moving "
+                        "items' states between groups; static keeps round robin (a restart: "
                         "longest-first). Never changes the numbers")
     p.add_argument("--restart", action="store_true",
                    help="resume from the checkpoint DIR/checkpoints/LATEST names (any number "

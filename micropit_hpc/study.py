@@ -5,8 +5,9 @@ A work item is one (position × wear coefficient × roughness scale × patch) wi
 (:mod:`micropit_hpc.parallel.groups`); each group's ranks run its items together
 (:mod:`micropit_hpc.parallel.slab`: every rank its x-slab of the contact, the stresses, Dang Van
 and damage). Which group runs which item (``balance``, docs/hpc.md §2): ``"dynamic"`` hands
-every block's items out as groups free up (later blocks longest first by the block before),
-an item's state going with it to the group that takes it; ``"static"`` keeps the first
+every block's items out as groups free up, the likely costliest first
+(:meth:`Plan.queue_order <micropit_hpc.plan.Plan.queue_order>`), an item's state going with it
+to the group that takes it; ``"static"`` keeps the first
 assignment (round robin, or a restart's longest-first). After every block the
 records are gathered on every rank. Results do not depend on the groups: an item's numbers come
 from its own seeds and its own block loop only (bitwise, wherever it runs and however often it
