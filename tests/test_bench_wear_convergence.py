@@ -1,0 +1,64 @@
+"""benchmarks/bench_wear_convergence.py continues a killed run from its state file to the same
+numbers, bit for bit, as a run straight through, and refuses a state written by other code."""
+
+from __future__ import annotations
+
+import importlib.util
+import sys
+from pathlib import Path
+
+import pytest
+
+from micropit_hpc.scene import load_scene
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def _bench():
+    sys.path.insert(0, str(ROOT / "benchmarks"))        # its sibling module ``table``
+    spec = importlib.util.spec_from_file_location(
+        "bench_wear_convergence", ROOT / "benchmarks" / "bench_wear_convergence.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def test_a_run_continued_from_its_state_gives_the_straight_run_bit_for_bit(tmp_path):
+    bench = _bench()
+    base = load_scene(ROOT / "scenes" / "quick.toml")
+    ref = bench.reference_surfaces(base, 32)
+    case = (base, 2, 5e-11, 32, 0.01)           # position 2, k_lub, n, ΔN [M]
+
+    straight = []
+    bench._run(*case, 0.02, ref, straight.append)
+    assert [r[5] for r in straight] == [0.01, 0.02]
+
+    state = tmp_path / "state.npz"
+    first, rest = [], []
+    bench._run(*case, 0.01, ref, first.append, state=state, tree="tree-a")
+    assert state.exists() and first[0][:-1] == straight[0][:-1]
+    bench._run(*case, 0.02, ref, rest.append, state=state, tree="tree-a")
+    # one block more, from the state: every column but the wall clock the straight run's,
+    # the sub-blocks and contact-only cycles counted from the start
+    assert len(rest) == 1 and rest[0][:-1] == straight[1][:-1]
+    assert rest[0][14] > first[0][14] and rest[0][-1] >= first[0][-1]
+    assert rest[0][6] > first[0][6] > 0.0            # the item wears on
+
+    # a state written by other code is refused, naming the file; it is left as it was
+    before = state.read_bytes()
+    with pytest.raises(SystemExit, match="state.npz.*tree-a.*tree-b"):
+        bench._run(*case, 0.03, ref, rest.append, state=state, tree="tree-b")
+    with pytest.raises(SystemExit, match="uncommitted"):
+        bench._run(*case, 0.03, ref, rest.append, state=state, tree="")
+    assert state.read_bytes() == before and len(rest) == 1
+
+
+def test_the_csv_tells_which_runs_stop_short(tmp_path):
+    bench = _bench()
+    path = tmp_path / "rows.csv"
+    path.write_text(",".join(bench.COLUMNS) + "\n"
+                    "quick,2,5e-11,32,0.01,0.01,1,1,1,0.1,0.1,1,1,1,1,1,1\n"
+                    "quick,2,5e-11,32,0.01,0.02,1,1,1,0.1,0.1,1,1,1,1,1,1\n"
+                    "quick,2,1e-11,32,0.01,0.01,1,1,1,0.1,0.1,1,1,1,1,1,1\n")
+    assert bench._done(path) == {("2", 5e-11, 32, 0.01): 0.02, ("2", 1e-11, 32, 0.01): 0.01}
+    assert bench._done(tmp_path / "none.csv") == {}
