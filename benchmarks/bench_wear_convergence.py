@@ -11,7 +11,8 @@ scene's grid (those first). One rank, one process. Rows go to ``--csv`` as they 
 re-run skips the runs whose rows there reach ``--cycles-M`` (same case, k_lub, n and ΔN); one
 that stops short starts again from its first block, or with ``--state`` from its last.
 ``--relief-share`` and ``--anderson-memory`` change the implicit wear's solver (docs/life.md,
-"Implicit wear"; give such runs their own ``--csv``: the skip does not tell them apart).
+"Implicit wear"; give such runs their own ``--csv`` and ``--state``: neither the skip nor the
+state files tell them apart).
 
 ``--state DIR`` keeps each run's item state (what a checkpoint holds,
 :func:`micropit_hpc.state.carried`) in ``DIR`` after every block, so that a run of hours can be
