@@ -15,7 +15,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _bench():
-    sys.path.insert(0, str(ROOT / "benchmarks"))        # its sibling module ``table``
+    if str(ROOT / "benchmarks") not in sys.path:         # its sibling module ``table``
+        sys.path.insert(0, str(ROOT / "benchmarks"))
     spec = importlib.util.spec_from_file_location(
         "bench_wear_convergence", ROOT / "benchmarks" / "bench_wear_convergence.py")
     mod = importlib.util.module_from_spec(spec)
