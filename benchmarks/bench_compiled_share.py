@@ -36,8 +36,8 @@ def main(argv=None) -> int:
     ap.add_argument("--after-M", type=float, default=0.0,
                     help="cycles [M] run first, unmeasured")
     a = ap.parse_args(argv)
+    measured = a.cycles_M
     a.cycles_M += a.after_M         # the item's block holds both stretches
-    measured = a.cycles_M - a.after_M
 
     def item():
         run = item_from_arguments(a)

@@ -79,6 +79,11 @@ def reference_surfaces(base, ref: int):
     return tuple(body_surface(ref_scene, i, ref_grid) for i in (1, 2))
 
 
+def scene_name(base) -> str:
+    """The scene's file stem, the CSV's first column and part of a state file's name."""
+    return Path(base.source).stem if base.source else "scene"
+
+
 def code_tree() -> str:
     """The committed git tree of ``micropit_hpc/``, or "" where there is no git checkout or
     the package has uncommitted changes (a state it writes is then never continued)."""
@@ -136,7 +141,7 @@ def _run(base, position, k_lub, n, block_M, cycles_M, reference, out, fatigue=Tr
         subs += rec.sub_blocks
         wear_cycles += rec.wear_cycles
         wall = before + time.perf_counter() - t0
-        row = (Path(base.source).stem if base.source else "scene", position, k_lub, n, block_M,
+        row = (scene_name(base), position, k_lub, n, block_M,
                run.state.cycles / 1e6, sum(rec.wear_mean) * 1e6, rec.Rq[0] * 1e6,
                rec.Rq[1] * 1e6, rec.slope[0], rec.slope[1], rec.Ap[0], rec.Ap[1], rec.phi,
                subs, wear_cycles, wall)
@@ -204,7 +209,7 @@ def main(argv=None) -> int:
     if states is not None:
         states.mkdir(parents=True, exist_ok=True)
     tree = code_tree() if states is not None else ""
-    scene = Path(base.source).stem if base.source else "scene"
+    scene = scene_name(base)
     for k in a.k_lub:
         for n, block in runs:
             if done.get((str(a.position), k, n, block), 0.0) >= a.cycles_M * (1 - 1e-9):
