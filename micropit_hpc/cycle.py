@@ -343,6 +343,7 @@ class PositionCycle:
         self._micro: dict[int, HalfSpaceStress] = {}
         self._whole: dict[int, HalfSpaceStress] = {}   # stress_by_steps
         self._macro_ellipse: dict[int, EllipticalContactField] = {}
+        self._process_transfers: dict[tuple, np.ndarray] = {}   # process_transfer, by columns
 
     def set_surfaces(self, surfaces: tuple[Topography, Topography],
                      pits: tuple[np.ndarray, np.ndarray] | None = None) -> None:
@@ -606,13 +607,48 @@ class PositionCycle:
         numbers as one rank's, bit for bit (docs/hpc.md §2)."""
         return self.contact_parallel == "steps" and self.slab.comm.size > 1
 
+    def process_transfer(self, cols: slice) -> np.ndarray | None:
+        """The averaging over the material's process area (``fatigue.process_length_um`` = ℓ)
+        as a transfer function on the half-spectrum columns ``cols``: a Gaussian of the
+        second moment of an ℓ × ℓ square, σ² = ℓ²/12, so Ĝ(k) = exp(−|k|² ℓ²/24), Ĝ(0) = 1
+        (the load and the macro field unchanged). The stresses are linear in the tractions
+        and the kernels commute with a convolution in the surface plane, so filtering the
+        tractions' spectra filters every stress component at every depth alike. None for
+        ℓ = 0, the paper's pointwise criterion (Morales-Espejel et al. 2018 §2: Dang Van at
+        each grid point). The area average before a multiaxial criterion is the process
+        volume of Fouvry et al. (J. Strain Anal. 37 (2002) 549) and the area method of the
+        theory of critical distances (Taylor, The Theory of Critical Distances, 2007, ch. 2),
+        both made for the steep gradients of contact fatigue (docs/life.md, "A process
+        length for the criterion")."""
+        ell = self.scene.fatigue.process_length
+        if ell <= 0.0:
+            return None
+        key = (cols.start, cols.stop)
+        if key not in self._process_transfers:
+            self._process_transfers[key] = np.exp(-(ell * ell / 24.0)
+                                                  * self.grid.kappa[:, cols] ** 2)
+        return self._process_transfers[key]
+
+    def _stress_spectra(self, p: np.ndarray, q: np.ndarray, slab: Slab
+                        ) -> tuple[np.ndarray, np.ndarray]:
+        """Half spectra of σ_zz(0) = −p and σ_xz(0) = −q on ``slab``'s columns from the rows
+        ``slab.rows`` of the material-frame maps, averaged over the process area
+        (:meth:`process_transfer`) where ``fatigue.process_length_um`` > 0."""
+        rows = slab.rows
+        P, T = slab.forward(-p[rows]), slab.forward(-q[rows])
+        g = self.process_transfer(slab.cols)
+        if g is not None:
+            P *= g
+            T *= g
+        return P, T
+
     def traction_spectra(self, fields: StepFields, body: int) -> tuple[np.ndarray, np.ndarray]:
         """Half spectra (P̂, T̂x) of σ_zz(0) = −p and σ_xz(0) = −q_x in the material frame of
         ``body`` at the step of ``fields`` (:meth:`material_tractions`), this rank's columns
-        ``slab.cols``; fresh arrays. Collective (the forward FFTs)."""
-        p, q = self.material_tractions(fields, body)
-        rows = self.slab.rows
-        return self.slab.forward(-p[rows]), self.slab.forward(-q[rows])
+        ``slab.cols``, averaged over the process area where ``fatigue.process_length_um`` > 0
+        (:meth:`process_transfer`: then σ_zz(0) = −p̃, the averaged pressure); fresh arrays.
+        Collective (the forward FFTs)."""
+        return self._stress_spectra(*self.material_tractions(fields, body), self.slab)
 
     def history_spectra(self, fields: list[StepFields], body: int) -> list:
         """The spectra that :meth:`stress_history` reads, one entry per step of ``fields``:
@@ -628,8 +664,7 @@ class PositionCycle:
             if j % comm.size != comm.rank:
                 out.append(None)
                 continue
-            p, q = self.material_tractions(f, body)
-            out.append((whole.forward(-p), whole.forward(-q)))
+            out.append(self._stress_spectra(*self.material_tractions(f, body), whole))
         return out
 
     def chunk_layers(self, steps: int | None = None) -> int:

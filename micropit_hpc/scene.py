@@ -595,6 +595,15 @@ class FatigueSpec:
         "local wear and pit updates leave, which m4 (∝ k⁴) would otherwise count as peaks "
         "(λ_c fell from 33 to 2.6 cells after 3 M cycles of wear, docs/life.md). 2 keeps every "
         "resolved wavelength (down to Nyquist).", default=4.0, lo=2, hi=1e4)
+    process_length: float = setting(
+        "process_length_um", "float", "[choice, beyond the paper] Side ℓ of the material's "
+        "process area: the stresses are averaged over the surface plane before the Dang Van "
+        "criterion, by a Gaussian of the same second moment as an ℓ × ℓ square "
+        "(σ = ℓ/√12; transfer exp(−k²ℓ²/24), the mean kept), at every depth layer, as the "
+        "process volume and critical-distance methods of fretting fatigue do. It gives the "
+        "criterion a length of the material's, so that pits stop following the grid cell "
+        "once the cell is below it (docs/life.md, \"A process length for the criterion\"). "
+        "0 is the paper's pointwise criterion.", "µm", UM, default=0.0, lo=0, hi=1e4)
     n_min: float = setting(
         "n_min", "float", "The fewest cycles the S–N line's data cover: below them "
         "the line is extrapolated (it predicts failure within one cycle at τ = B/√3, below "
