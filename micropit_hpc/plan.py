@@ -295,11 +295,18 @@ def make_plan(scene: Scene, positions: Sequence[int] | None = None, *,
 P0_STEEL_MAX = 8e9
 
 
+#: The fewest grid cells per ``fatigue.process_length_um`` at which the averaging, and not the
+#: cell, sets the shortest length of the stresses: its transfer exp(−k²ℓ²/24) at the Nyquist
+#: wavenumber π/Δx is then below 0.1 (ℓ ≥ √(24 ln 10)/π Δx = 2.37 Δx).
+PROCESS_MIN_CELLS = 2.4
+
+
 def plausibility_warnings(scene: Scene, study: ContactStudy, grid) -> list[str]:
     """Warnings for a scene whose values are allowed but cannot be meant, once the contact and
     the window are known: a Hertz pressure no steel carries (a torque in N·mm, a facewidth in
-    m), and in-plane lengths of a synthetic surface shorter than a grid cell (the grid does not
-    resolve them; often a value in metres)."""
+    m), in-plane lengths of a synthetic surface shorter than a grid cell (the grid does not
+    resolve them; often a value in metres), and a process length of the fatigue criterion
+    below :data:`PROCESS_MIN_CELLS` cells (the averaging does not yet act)."""
     out = []
     src = scene.source
     p0s = [c.p0 for c in study.conditions]
@@ -328,4 +335,13 @@ def plausibility_warnings(scene: Scene, study: ContactStudy, grid) -> list[str]:
                 out.append(f"{src}: body{i}.surface.{key} = {value * 1e6:.3g} µm is shorter "
                            f"than one grid cell along {axis} ({cell[axis] * 1e6:.3g} µm): the "
                            f"grid cannot resolve it (raise window.n, or check the unit)")
+    ell = scene.fatigue.process_length
+    cells = ell / max(cell.values())
+    if 0.0 < ell and cells < PROCESS_MIN_CELLS:
+        out.append(f"{src}: fatigue.process_length_um = {ell * 1e6:.3g} µm is {cells:.2g} "
+                   f"grid cells ({max(cell.values()) * 1e6:.3g} µm): the averaging keeps "
+                   f"more than a tenth of the shortest wavelength, so the cell still acts as "
+                   f"the process area and the pits still follow the grid (raise window.n to "
+                   f"{PROCESS_MIN_CELLS:g} cells per length or more; docs/life.md, \"A process "
+                   f"length for the criterion\")")
     return out

@@ -1,0 +1,146 @@
+"""The stresses averaged over the material's process area before the Dang Van criterion
+(``fatigue.process_length_um`` = ℓ, docs/life.md "A process length for the criterion"): every
+component at every depth of a single-mode load scaled by exp(−k²ℓ²/24), the mean and the macro
+field kept, and the surface stresses of a sharp-edged pit in the pressure map converging with
+the grid where the pointwise field (ℓ = 0) keeps growing."""
+
+from __future__ import annotations
+
+import math
+import tomllib
+
+import numpy as np
+import pytest
+from helpers import SCENES
+
+from micropit_hpc.conditions import contact_study
+from micropit_hpc.cycle import PositionCycle, StepFields
+from micropit_hpc.errors import MicropitError
+from micropit_hpc.scene import scene_from_dict
+
+MU = 0.08
+
+
+def _cycle(n: int, ell_um: float, layers: int = 5) -> PositionCycle:
+    """Position 5 of the paper gear (S = −0.05, p0 1.08 GPa) on an n² window of the scene's
+    physical size, ``layers`` depth layers, process length ``ell_um``."""
+    doc = tomllib.loads((SCENES / "paper_gear_z23.toml").read_text())
+    doc["window"]["n"] = n
+    doc.setdefault("stress", {})["layers"] = layers
+    doc["fatigue"] = {"process_length_um": ell_um}
+    return PositionCycle(contact_study(scene_from_dict(doc, "gear.toml")), 5)
+
+
+def _fields(cyc: PositionCycle, pressure: np.ndarray) -> StepFields:
+    """A step at t = 0 (no slip, so the material frame is the window's) carrying ``pressure``
+    with the traction μ p on body 1 and −μ p on body 2."""
+    q = MU * pressure
+    return StepFields(position=5, step=0, t=0.0, x_c=cyc.centre(0.0),
+                      p_mean=float(pressure.mean()), level="dry", pressure=pressure,
+                      clearance=np.zeros_like(pressure), solid=np.ones(pressure.shape, bool),
+                      friction=np.full(pressure.shape, MU), phi=1.0, iterations=0,
+                      traction1=q, traction2=-q)
+
+
+def _micro(cyc: PositionCycle, f: StepFields, body: int) -> np.ndarray:
+    return cyc.stresses(f, body) - cyc.macro_stress(f, body)
+
+
+@pytest.mark.parametrize("body", [1, 2])
+def test_a_single_mode_is_scaled_by_the_gaussian_at_every_depth(body):
+    """p = p̄[1 + 0.4 cos(k·x)] (k: 5 and 3 periods over the window) with q = ±μp: with
+    ℓ = 10 µm every stress component on every layer is exp(−|k|²ℓ²/24) times the pointwise
+    one (the averaging is a convolution in the plane, and the half-space kernels commute with
+    it); the macro field is the same, and at the surface σ_zz = −(p̃ − p̄), σ_xz = ∓μ(p̃ − p̄)
+    with p̃ the averaged pressure."""
+    ell = 10e-6
+    pointwise, averaged = _cycle(32, 0.0), _cycle(32, ell * 1e6)
+    g = pointwise.grid
+    x = np.arange(g.nx)[:, None] / g.nx
+    y = np.arange(g.ny)[None, :] / g.ny
+    phase = 2 * math.pi * (5 * x + 3 * y)
+    p_bar = 1.0e9
+    p = p_bar * (1.0 + 0.4 * np.cos(phase))
+    k2 = (2 * math.pi * 5 / (g.nx * g.dx)) ** 2 + (2 * math.pi * 3 / (g.ny * g.dy)) ** 2
+    factor = math.exp(-k2 * ell * ell / 24.0)
+    assert 0.3 < factor < 0.9                       # a real cut, not round-off
+    s0 = _micro(pointwise, _fields(pointwise, p), body)
+    s1 = _micro(averaged, _fields(averaged, p), body)
+    assert np.abs(s0).max() > 0.1 * p_bar
+    np.testing.assert_allclose(s1, factor * s0, rtol=0, atol=1e-9 * p_bar)
+    np.testing.assert_array_equal(averaged.macro_stress(_fields(averaged, p), body),
+                                  pointwise.macro_stress(_fields(pointwise, p), body))
+    # at the surface the micro field is that of the averaged maps less their means
+    p_avg = p_bar * 0.4 * factor * np.cos(phase)
+    sign = 1.0 if body == 1 else -1.0
+    np.testing.assert_allclose(-s1[2, 0], p_avg, rtol=0, atol=1e-9 * p_bar)
+    np.testing.assert_allclose(-s1[4, 0], sign * MU * p_avg, rtol=0, atol=1e-9 * p_bar)
+
+
+def test_zero_length_is_the_pointwise_criterion_bit_for_bit():
+    """ℓ = 0 (the default) applies nothing: the same stresses bit for bit as a scene that does
+    not name the key."""
+    doc = tomllib.loads((SCENES / "paper_gear_z23.toml").read_text())
+    doc["window"]["n"] = 32
+    doc.setdefault("stress", {})["layers"] = 4
+    plain = PositionCycle(contact_study(scene_from_dict(doc, "gear.toml")), 5)
+    zero = _cycle(32, 0.0, layers=4)
+    assert plain.scene.fatigue.process_length == 0.0 and zero.process_transfer(slice(0, 17)) is None
+    f = plain.solve_step(plain.steps // 2)
+    for body in (1, 2):
+        np.testing.assert_array_equal(zero.stresses(f, body), plain.stresses(f, body))
+
+
+def _pit_map(cyc: PositionCycle, radius: float) -> np.ndarray:
+    """p̄ = 1 GPa everywhere but a disc of the given radius at the window's centre (a pit,
+    carrying nothing); the disc's area is kept the same on every grid by the cells' share."""
+    g = cyc.grid
+    x = (np.arange(g.nx) - g.nx // 2)[:, None] * g.dx
+    y = (np.arange(g.ny) - g.ny // 2)[None, :] * g.dy
+    return np.where(x * x + y * y <= radius * radius, 0.0, 1.0e9)
+
+
+def test_a_pit_edge_converges_with_the_grid_only_over_a_process_area():
+    """The friction on the rim of a pit (p and q = μp dropping to zero over a disc of 15 µm
+    radius) puts a logarithmic singularity into the surface σ_xx of the pointwise field: its
+    largest value grows by about (2μ/π)·p̄·ln 2 per halving of the cell (Johnson, Contact
+    Mechanics, eq. 2.63, a tangential step), so a pointwise criterion's result at the rim
+    follows the cell. Averaged over ℓ = 10 µm the same maps give the same surface stresses on
+    64² and 128² to a small fraction of that growth (measured: 1.18 and 1.19 steps per
+    doubling pointwise from 32² to 128², −0.06 and −0.006 averaged)."""
+    radius, p_bar = 15e-6, 1.0e9
+    step = 2 * MU / math.pi * p_bar * math.log(2)      # the log law's growth per doubling
+    peak = {}
+    for ell in (0.0, 10.0):
+        for n in (32, 64, 128):
+            cyc = _cycle(n, ell, layers=2)
+            s = _micro(cyc, _fields(cyc, _pit_map(cyc, radius)), 1)[:, 0]
+            peak[ell, n] = float(np.abs(s[0]).max())
+    pointwise = [peak[0.0, n] for n in (32, 64, 128)]
+    averaged = [peak[10.0, n] for n in (32, 64, 128)]
+    assert pointwise[1] - pointwise[0] > 0.5 * step
+    assert pointwise[2] - pointwise[1] > 0.5 * step
+    assert abs(averaged[2] - averaged[1]) < 0.1 * step
+    assert abs(averaged[1] - averaged[0]) < abs(pointwise[1] - pointwise[0])
+
+
+def test_a_negative_length_is_refused_with_its_key(tmp_path):
+    doc = tomllib.loads((SCENES / "paper_gear_z23.toml").read_text())
+    doc["fatigue"] = {"process_length_um": -1.0}
+    with pytest.raises(MicropitError, match="process_length_um"):
+        scene_from_dict(doc, "gear.toml")
+
+
+def test_a_process_length_the_grid_does_not_resolve_is_warned_about():
+    """ℓ = 5 µm on the paper gear's 64² window (3.2 µm cells) is 1.6 cells: the averaging
+    keeps exp(−π²·1.6²/24) = 0.51 of the Nyquist wave, so the plan warns; 10 µm (3.1 cells,
+    0.08 of it) does not."""
+    from micropit_hpc.plan import make_plan
+
+    doc = tomllib.loads((SCENES / "paper_gear_z23.toml").read_text())
+    for ell, warned in ((5.0, True), (10.0, False)):
+        doc["fatigue"] = {"process_length_um": ell}
+        warnings = make_plan(scene_from_dict(doc, "gear.toml")).warnings
+        assert any("fatigue.process_length_um = %g µm is 1.6 grid cells" % ell in w
+                   for w in warnings) is warned, warnings
+        assert len(warnings) == int(warned)
