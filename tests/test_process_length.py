@@ -132,15 +132,17 @@ def test_a_negative_length_is_refused_with_its_key(tmp_path):
 
 
 def test_a_process_length_the_grid_does_not_resolve_is_warned_about():
-    """ℓ = 5 µm on the paper gear's 64² window (3.2 µm cells) is 1.6 cells: the averaging
-    keeps exp(−π²·1.6²/24) = 0.51 of the Nyquist wave, so the plan warns; 10 µm (3.1 cells,
-    0.08 of it) does not."""
+    """ℓ = 4 µm on the paper gear's 64² window (3.2 µm cells) is 1.2 cells: the averaging
+    keeps exp(−π²·1.25²/24) = 53 % of the Nyquist wave, so the plan warns; 5 µm (1.56 cells,
+    the measured case that converged) does not."""
     from micropit_hpc.plan import make_plan
 
     doc = tomllib.loads((SCENES / "paper_gear_z23.toml").read_text())
-    for ell, warned in ((5.0, True), (10.0, False)):
+    said = {}
+    for ell in (4.0, 5.0, 0.0):
         doc["fatigue"] = {"process_length_um": ell}
-        warnings = make_plan(scene_from_dict(doc, "gear.toml")).warnings
-        assert any("fatigue.process_length_um = %g µm is 1.6 grid cells" % ell in w
-                   for w in warnings) is warned, warnings
-        assert len(warnings) == int(warned)
+        said[ell] = make_plan(scene_from_dict(doc, "gear.toml")).warnings
+    assert not said[5.0] and not said[0.0], said
+    assert len(said[4.0]) == 1 and ("fatigue.process_length_um = 4 µm is 1.2 grid cells "
+                                    "(3.21 µm): the averaging keeps 53 % of the shortest wave"
+                                    in said[4.0][0]), said[4.0]

@@ -28,14 +28,20 @@ def all_ranks_agree(comm, ok: bool) -> bool:
 
 @pytest.mark.mpi(min_size=2)
 @pytest.mark.parametrize("parallel", ["slabs", "steps"])
-def test_streamed_stresses_on_uneven_slabs(tmp_path, parallel):
+@pytest.mark.parametrize("process_um", [0.0, 40.0])
+def test_streamed_stresses_on_uneven_slabs(tmp_path, parallel, process_um):
+    """Also with the stresses averaged over a process area (``fatigue.process_length_um`` of
+    3.6 cells here): the transfer is applied to each rank's spectral columns, or to the whole
+    window's under "steps", with the same numbers."""
     from mpi4py import MPI
 
     comm = MPI.COMM_WORLD
     extra = SMALL.replace("n = 32", "n = 33").replace("layers = 4", "layers = 5")
+    extra += f"[fatigue]\nprocess_length_um = {process_um}\n"
     study = contact_study(load_scene(gear_scene(tmp_path, extra=extra)))
     cyc = PositionCycle(study, 3, comm=comm, parallel=parallel)
     assert cyc.stress_by_steps == (parallel == "steps")
+    assert (cyc.process_transfer(slice(None)) is None) == (process_um == 0.0)
     counts = cyc.slab.counts
     m, ny = cyc.steps, cyc.grid.ny
     # two layers of the smallest slab's history: one of the largest; a per-rank rule would
