@@ -93,7 +93,7 @@ def test_zero_length_is_the_pointwise_criterion_bit_for_bit():
 
 def _pit_map(cyc: PositionCycle, radius: float) -> np.ndarray:
     """p̄ = 1 GPa everywhere but a disc of the given radius at the window's centre (a pit,
-    carrying nothing); the disc's area is kept the same on every grid by the cells' share."""
+    carrying nothing), the cells whose centres lie inside it."""
     g = cyc.grid
     x = (np.arange(g.nx) - g.nx // 2)[:, None] * g.dx
     y = (np.arange(g.ny) - g.ny // 2)[None, :] * g.dy
@@ -103,8 +103,9 @@ def _pit_map(cyc: PositionCycle, radius: float) -> np.ndarray:
 def test_a_pit_edge_converges_with_the_grid_only_over_a_process_area():
     """The friction on the rim of a pit (p and q = μp dropping to zero over a disc of 15 µm
     radius) puts a logarithmic singularity into the surface σ_xx of the pointwise field: its
-    largest value grows by about (2μ/π)·p̄·ln 2 per halving of the cell (Johnson, Contact
-    Mechanics, eq. 2.63, a tangential step), so a pointwise criterion's result at the rim
+    largest value grows by about (2μ/π)·p̄·ln 2 per halving of the cell (a uniform tangential
+    traction q on a strip of the half-plane gives σ_x(x, 0) = (2q/π) ln|(x − a)/(x + a)| at
+    its surface; Johnson, Contact Mechanics, ch. 2), so a pointwise criterion's result at the rim
     follows the cell. Averaged over ℓ = 10 µm the same maps give the same surface stresses on
     64² and 128² to a small fraction of that growth (measured: 1.18 and 1.19 steps per
     doubling pointwise from 32² to 128², −0.06 and −0.006 averaged)."""
@@ -124,7 +125,7 @@ def test_a_pit_edge_converges_with_the_grid_only_over_a_process_area():
     assert abs(averaged[1] - averaged[0]) < abs(pointwise[1] - pointwise[0])
 
 
-def test_a_negative_length_is_refused_with_its_key(tmp_path):
+def test_a_negative_length_is_refused_with_its_key():
     doc = tomllib.loads((SCENES / "paper_gear_z23.toml").read_text())
     doc["fatigue"] = {"process_length_um": -1.0}
     with pytest.raises(MicropitError, match="process_length_um"):
