@@ -343,7 +343,9 @@ class PositionCycle:
         self._micro: dict[int, HalfSpaceStress] = {}
         self._whole: dict[int, HalfSpaceStress] = {}   # stress_by_steps
         self._macro_ellipse: dict[int, EllipticalContactField] = {}
-        self._process_transfers: dict[tuple, np.ndarray] = {}   # process_transfer, by columns
+        ell = scene.fatigue.process_length       # process_transfer, on the whole half spectrum
+        self._process_gauss = (np.exp(-(ell * ell / 24.0) * g.kappa ** 2) if ell > 0.0
+                               else None)
 
     def set_surfaces(self, surfaces: tuple[Topography, Topography],
                      pits: tuple[np.ndarray, np.ndarray] | None = None) -> None:
@@ -620,14 +622,7 @@ class PositionCycle:
         theory of critical distances (Taylor, The Theory of Critical Distances, 2007, ch. 2),
         both made for the steep gradients of contact fatigue (docs/life.md, "A process
         length for the criterion")."""
-        ell = self.scene.fatigue.process_length
-        if ell <= 0.0:
-            return None
-        key = (cols.start, cols.stop)
-        if key not in self._process_transfers:
-            self._process_transfers[key] = np.exp(-(ell * ell / 24.0)
-                                                  * self.grid.kappa[:, cols] ** 2)
-        return self._process_transfers[key]
+        return None if self._process_gauss is None else self._process_gauss[:, cols]
 
     def _stress_spectra(self, p: np.ndarray, q: np.ndarray, slab: Slab
                         ) -> tuple[np.ndarray, np.ndarray]:

@@ -337,14 +337,14 @@ def plausibility_warnings(scene: Scene, study: ContactStudy, grid) -> list[str]:
                 out.append(f"{src}: body{i}.surface.{key} = {value * 1e6:.3g} µm is shorter "
                            f"than one grid cell along {axis} ({cell[axis] * 1e6:.3g} µm): the "
                            f"grid cannot resolve it (raise window.n, or check the unit)")
-    ell = scene.fatigue.process_length
-    cells = ell / max(cell.values())
+    ell, coarse = scene.fatigue.process_length, max(cell.values())
+    cells = ell / coarse
     if 0.0 < ell and cells < PROCESS_MIN_CELLS:
         out.append(f"{src}: fatigue.process_length_um = {ell * 1e6:.3g} µm is {cells:.2g} "
-                   f"grid cells ({max(cell.values()) * 1e6:.3g} µm): the averaging keeps "
+                   f"grid cells ({coarse * 1e6:.3g} µm): the averaging keeps "
                    f"{100 * math.exp(-(math.pi * cells) ** 2 / 24):.0f} % of the shortest "
                    f"wave, so the cell still acts as the process area and the pits can "
-                   f"follow the grid "
-                   f"(raise window.n until the length spans {PROCESS_MIN_CELLS:g} cells; "
+                   f"follow the grid (raise window.n until the length spans "
+                   f"{PROCESS_MIN_CELLS:g} cells; "
                    f"docs/life.md, \"A process length for the criterion\")")
     return out

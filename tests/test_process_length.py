@@ -21,14 +21,23 @@ from micropit_hpc.scene import scene_from_dict
 MU = 0.08
 
 
-def _cycle(n: int, ell_um: float, layers: int = 5) -> PositionCycle:
-    """Position 5 of the paper gear (S = −0.05, p0 1.08 GPa) on an n² window of the scene's
-    physical size, ``layers`` depth layers, process length ``ell_um``."""
+def _doc(n: int = 64, layers: int | None = None, ell_um: float | None = None) -> dict:
+    """The paper gear's scene as a dict, on an n² window of its physical size, with ``layers``
+    depth layers and ``[fatigue] process_length_um = ell_um`` where given."""
     doc = tomllib.loads((SCENES / "paper_gear_z23.toml").read_text())
     doc["window"]["n"] = n
-    doc.setdefault("stress", {})["layers"] = layers
-    doc["fatigue"] = {"process_length_um": ell_um}
-    return PositionCycle(contact_study(scene_from_dict(doc, "gear.toml")), 5)
+    if layers is not None:
+        doc.setdefault("stress", {})["layers"] = layers
+    if ell_um is not None:
+        doc["fatigue"] = {"process_length_um": ell_um}
+    return doc
+
+
+def _cycle(n: int, ell_um: float | None, layers: int = 5) -> PositionCycle:
+    """Position 5 of the paper gear (S = −0.05, p0 1.08 GPa) on an n² window of the scene's
+    physical size, ``layers`` depth layers, process length ``ell_um`` (None: the key left
+    out)."""
+    return PositionCycle(contact_study(scene_from_dict(_doc(n, layers, ell_um), "gear.toml")), 5)
 
 
 def _fields(cyc: PositionCycle, pressure: np.ndarray) -> StepFields:
@@ -80,10 +89,7 @@ def test_a_single_mode_is_scaled_by_the_gaussian_at_every_depth(body):
 def test_zero_length_is_the_pointwise_criterion_bit_for_bit():
     """ℓ = 0 (the default) applies nothing: the same stresses bit for bit as a scene that does
     not name the key."""
-    doc = tomllib.loads((SCENES / "paper_gear_z23.toml").read_text())
-    doc["window"]["n"] = 32
-    doc.setdefault("stress", {})["layers"] = 4
-    plain = PositionCycle(contact_study(scene_from_dict(doc, "gear.toml")), 5)
+    plain = _cycle(32, None, layers=4)
     zero = _cycle(32, 0.0, layers=4)
     assert plain.scene.fatigue.process_length == 0.0 and zero.process_transfer(slice(0, 17)) is None
     f = plain.solve_step(plain.steps // 2)
@@ -126,10 +132,8 @@ def test_a_pit_edge_converges_with_the_grid_only_over_a_process_area():
 
 
 def test_a_negative_length_is_refused_with_its_key():
-    doc = tomllib.loads((SCENES / "paper_gear_z23.toml").read_text())
-    doc["fatigue"] = {"process_length_um": -1.0}
     with pytest.raises(MicropitError, match="process_length_um"):
-        scene_from_dict(doc, "gear.toml")
+        scene_from_dict(_doc(ell_um=-1.0), "gear.toml")
 
 
 def test_a_process_length_the_grid_does_not_resolve_is_warned_about():
@@ -138,11 +142,8 @@ def test_a_process_length_the_grid_does_not_resolve_is_warned_about():
     the measured case that converged) does not."""
     from micropit_hpc.plan import make_plan
 
-    doc = tomllib.loads((SCENES / "paper_gear_z23.toml").read_text())
-    said = {}
-    for ell in (4.0, 5.0, 0.0):
-        doc["fatigue"] = {"process_length_um": ell}
-        said[ell] = make_plan(scene_from_dict(doc, "gear.toml")).warnings
+    said = {ell: make_plan(scene_from_dict(_doc(ell_um=ell), "gear.toml")).warnings
+            for ell in (4.0, 5.0, 0.0)}
     assert not said[5.0] and not said[0.0], said
     assert len(said[4.0]) == 1 and ("fatigue.process_length_um = 4 µm is 1.2 grid cells "
                                     "(3.21 µm): the averaging keeps 53 % of the shortest wave"
