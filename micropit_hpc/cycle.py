@@ -410,11 +410,12 @@ class PositionCycle:
 
     # ---- one step ----------------------------------------------------------------------------
     # the contact of one step at each level (:data:`~micropit_hpc.plan.LEVELS`): (rough
-    # clearance spectra at t, p̄, t, warm start, warm dict) → (pressure, clearance, φ, iterations)
+    # clearance spectra at t, p̄, t, warm start, warm dict) → (pressure, clearance, φ,
+    # iterations, the clearance at or below which a point touches to the solve's accuracy)
     def _smooth_contact(self, r_now, p_mean: float, t: float, p_init, warm, free=None):
         """No roughness in the contact (or no load): p = p̄ and the central film everywhere."""
         g = self.grid
-        return np.full(g.shape, p_mean), np.full(g.shape, self.cond.hc), 0.0, 0
+        return np.full(g.shape, p_mean), np.full(g.shape, self.cond.hc), 0.0, 0, 0.0
 
     def _dry_contact(self, r_now, p_mean: float, t: float, p_init, warm, free=None):
         """Elastic–perfectly-plastic contact of the roughness; the solids carry all (φ = 1)."""
@@ -431,14 +432,14 @@ class PositionCycle:
             warm["dry"] = sol.pressure.astype(np.float32)     # this rank's rows
         if hs.distributed:
             return (hs.slab.allgather_rows(sol.pressure), hs.slab.allgather_rows(sol.gap), 1.0,
-                    sol.iterations)
-        return sol.pressure, sol.gap, 1.0, sol.iterations
+                    sol.iterations, sol.gap_accuracy)
+        return sol.pressure, sol.gap, 1.0, sol.iterations, sol.gap_accuracy
 
     def _mixed_contact(self, r_now, p_mean: float, t: float, p_init, warm, free=None):
         """The fast mixed-lubrication model (:class:`MixedLubrication`)."""
         sol = self.mixed.solve(r_now, self.rough_spectra, p_mean, t, p_init=p_init, warm=warm,
                                free=free)
-        return sol.pressure, sol.clearance, sol.phi, sol.iterations
+        return sol.pressure, sol.clearance, sol.phi, sol.iterations, sol.touch
 
     #: The contact solver of each level.
     _CONTACT: ClassVar[dict[str, Callable]] = {"smooth": _smooth_contact, "dry": _dry_contact,
@@ -466,7 +467,7 @@ class PositionCycle:
         level = "smooth" if p_mean == 0.0 else self.level
         free = self._open_pits(t, p_mean) if level != "smooth" else None
         try:
-            pressure, clearance, phi, iters = self._CONTACT[level](self, r_now, p_mean, t,
+            pressure, clearance, phi, iters, touch = self._CONTACT[level](self, r_now, p_mean, t,
                                                                    p_init, warm, free)
         except ContactError:
             if p_init is None and not warm:      # a cold start failed: that stands
@@ -476,7 +477,7 @@ class PositionCycle:
             # steps fall (a quick-scene step at 0.03 p0: residual 1e-3 after 5000 iterations,
             # converged from cold); once more from cold, the same on every rank of the group
             fresh = None if warm is None else {}
-            pressure, clearance, phi, iters = self._CONTACT[level](self, r_now, p_mean, t,
+            pressure, clearance, phi, iters, touch = self._CONTACT[level](self, r_now, p_mean, t,
                                                                    None, fresh, free)
             if warm is not None:
                 warm.clear()
@@ -484,7 +485,10 @@ class PositionCycle:
         pit_load = 0.0
         if self.pits is not None and p_mean > 0.0:
             pressure, clearance, pit_load = self._unload_pits(pressure, clearance, p_mean, t)
-        solid = clearance <= lub.h_min if self.level != "smooth" else np.zeros(g.shape, bool)
+        # solid contact: clearance ≤ h_min, or 0 to the dry solve's accuracy (an elastic
+        # contact point's gap is its residual, of round-off sign: DryContact.gap_accuracy)
+        solid = (clearance <= max(lub.h_min, touch) if self.level != "smooth"
+                 else np.zeros(g.shape, bool))
         friction = np.where(solid, lub.mu_bl, lub.mu_ehl)
         q = friction * pressure
         s1 = math.copysign(1.0, c.u2 - c.u1) if c.u2 != c.u1 else 0.0
@@ -864,8 +868,9 @@ class PositionCycle:
         with event("wear_rate"):
             h_min, ramp = self.scene.lubrication.h_min, self.scene.wear.solid_ramp * c.hc
             return archard_wear([f.pressure for f in fields],
-                                [solid_weight(f.clearance, h_min, ramp) if self.level != "smooth"
-                                 else f.solid for f in fields],
+                                [solid_weight(f.clearance, h_min, ramp)
+                                 if self.level != "smooth" and ramp > 0 else f.solid
+                                 for f in fields],
                                 [self.slip(body, f.t) for f in fields], self.grid.dx, c.u_s,
                                 own.hardness, other.hardness, self.k_lub,
                                 self.scene.wear.f_w, self.half_spaces.self_compliance,

@@ -153,6 +153,24 @@ def test_the_gap_and_the_approach_are_those_of_the_pressure(case):
     assert np.abs(misfit).max() <= bound
 
 
+def test_every_contact_point_touches_to_the_solves_accuracy():
+    """DryContact.gap_accuracy: every point that carries pressure has a gap at or below it,
+    and it is far below the roughness (100 residuals of the solve). The raw gap of an elastic
+    contact point is the solve's residual, of either sign (here some are positive: the case
+    the accuracy exists for), so "gap ≤ 0" alone would put such points out of contact."""
+    g, gap0 = rough_gap(4)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    P = 1.0e9
+    p_lim = 0.45 * solve_dry_contact(gap0, hs, P, tol=TOL, max_iter=MAX_ITER).pressure.max()
+    for cap in (p_lim, math.inf):
+        r = solve_dry_contact(gap0, hs, P, cap, tol=TOL, max_iter=MAX_ITER)
+        on = r.pressure > 0
+        assert np.count_nonzero(on & (r.pressure < cap) & (r.gap > 0)) > 0
+        assert 0.0 < r.gap_accuracy <= 1e-5 * gap0.std()
+        assert np.all(r.gap[on] <= r.gap_accuracy)
+    assert solve_dry_contact(gap0, hs, 0.0, tol=TOL, max_iter=MAX_ITER).gap_accuracy == 0.0
+
+
 def test_a_yielded_set_that_holds_is_not_convolved_again(monkeypatch):
     """The field g0 + u(p_lim on the yielded points) is made once per yielded set: a rung or an
     early update that leaves the set as it was reuses it (one convolution saved each; a cold

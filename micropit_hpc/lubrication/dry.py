@@ -41,9 +41,10 @@ class ContactError(MicropitError):
 class DryContact:
     """Solution of a dry contact problem (SI).
 
-    ``gap`` is the deformed gap g = g0 + u − δ (0 on elastic contact, < 0 where plastic);
-    ``approach`` is δ; ``error`` the final relative residual (see :func:`solve_dry_contact`);
-    ``iterations`` all CG steps of the solve, the coarse-to-fine start's included.
+    ``gap`` is the deformed gap g = g0 + u − δ (0 on elastic contact to the solve's accuracy,
+    :attr:`gap_accuracy`; < 0 where plastic); ``approach`` is δ;
+    ``error`` the final relative residual (see :func:`solve_dry_contact`); ``iterations`` all CG
+    steps of the solve, the coarse-to-fine start's included.
     From a distributed solve, ``pressure`` and ``gap`` (and so :attr:`contact` and
     :attr:`area_fraction`) are this rank's rows only.
     """
@@ -56,6 +57,15 @@ class DryContact:
     #: Of ``iterations``, those spent on the coarse grids of the coarse-to-fine start (each
     #: costs 1/4, 1/16, … of an iteration on the window's grid).
     coarse_iterations: int = 0
+    #: [m] The gap at or below which a point touches to the solve's accuracy:
+    #: :data:`CLEARANCE_MARGIN` × the residual the solve stopped at (its threshold on ε times
+    #: rms(g0 − mean g0)); 0 for the exact solutions (no load, a flat gap). On an elastic
+    #: contact point g is 0 but for the residual, whose sign is round-off: with
+    #: ``lubrication.h_min_um`` = 0 (the default) "clearance ≤ h_min" alone put about half of
+    #: the elastic contact points out of solid contact (the paper gear's position 3 at 256²,
+    #: one dry step: 251 of 463), so the step's solid contact is "clearance ≤ max(h_min,
+    #: gap_accuracy)" (:meth:`~micropit_hpc.cycle.PositionCycle.solve_step`).
+    gap_accuracy: float = 0.0
 
     @property
     def contact(self) -> np.ndarray:
@@ -406,6 +416,13 @@ def residual_threshold(tol: float, grid: Grid) -> float:
     return tol * min(1.0, n0 / max(grid.nx, grid.ny)) ** TOLERANCE_EXPONENT
 
 
+#: :attr:`DryContact.gap_accuracy` in units of the residual a solve stopped at: the gap of
+#: a contact point is within a few residuals of 0 (at most 2.1 and 3.0 of them on the paper
+#: gear's 256² and 512² dry steps, 2.9–6.4 on four 256² random rough gaps, elastic and
+#: capped), and a point out of contact whose gap is within 100 of them (a few pm) touches to
+#: the solve's accuracy (one point in those ten solves).
+CLEARANCE_MARGIN = 100.0
+
 #: The coarse-to-fine start of a cold solve (:func:`solve_dry_contact` without ``p_init``):
 #: the window is coarsened by 2 while both sides stay even and the coarse grid keeps at least
 #: this many points per side; 0 turns the start off (every cold solve from uniform pressure).
@@ -733,4 +750,5 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
             "check that the roughness is resolved by the grid)", iterations=used)
     # g = g0 + u(p) − δ with δ the last CG step's mean contact gap: the yielded points' share
     # of u is in g_fixed, the others' in the step's gap (g0 + u(p) − g = δ to round-off)
-    return DryContact(p, g, float(approach), used, error, coarse_used)
+    return DryContact(p, g, float(approach), used, error, coarse_used,
+                      CLEARANCE_MARGIN * tol * scale)

@@ -81,6 +81,9 @@ class MixedSolution:
     phi: float
     iterations: int
     film_mean: float
+    #: [m] The clearance at or below which a point touches to the accuracy of the final dry
+    #: solve (its :attr:`~micropit_hpc.lubrication.dry.DryContact.gap_accuracy`; 0 without one)
+    touch: float = 0.0
 
 
 def solve_dispersion(a, c, e, ky, eta_x, eta_y, steps: int = 8, newton: int = 8,
@@ -475,7 +478,7 @@ class MixedLubrication:
             H_final[0, 0] = clearance.mean() * g.nx * g.ny
             clearance = fft.inverse(H_final)
         return self._finish(H_final, r_tot, clearance, phi, p_mean, state["iters"],
-                            float(np.maximum(clearance, 0).mean()))
+                            float(np.maximum(clearance, 0).mean()), sol.gap_accuracy)
 
     def _scan_grid(self):
         """(levels, coarse half-spaces) of the coarse φ scan (:data:`SCAN_LEVELS`,
@@ -588,14 +591,16 @@ class MixedLubrication:
             j, hi, fhi, sol_hi = j - 1, lo, flo, sol_lo
         return 0.0, f0, None, hi, fhi, sol_hi
 
-    def _finish(self, H, r_tot, clearance, phi, p_mean, iters, film_mean) -> MixedSolution:
+    def _finish(self, H, r_tot, clearance, phi, p_mean, iters, film_mean,
+                touch: float = 0.0) -> MixedSolution:
         """Step 4: pressure from the total displacement H − r through the inverse frequency
         response, clipped to [0, p_lim], mean restored to p̄."""
         dp = H - r_tot
         dp[0, 0] = 0.0
         p = self._fft.inverse(dp * self.hs.stiffness)
         p = restore_mean(p, p_mean, self.p_lim)
-        return MixedSolution(p, clearance, float(phi), int(iters), float(film_mean))
+        return MixedSolution(p, clearance, float(phi), int(iters), float(film_mean),
+                             float(touch))
 
 
 #: Bytes of lubricated factors one model keeps (:meth:`MixedLubrication.cached_factors`): all
