@@ -39,7 +39,7 @@ def step_gaps(n: int, position: int):
                    for j in range(cycle.steps)]
 
 
-def _value(text: str):
+def parse_value(text: str):
     """A module constant's value from the command line: int, float or True/False."""
     if text in ("True", "False"):
         return text == "True"
@@ -69,7 +69,7 @@ def main(argv=None) -> None:
     elif a.values is None or len(a.values) < 2:
         ap.error("--vary needs two --values at least")
     else:
-        values = [_value(v) for v in a.values]
+        values = [parse_value(v) for v in a.values]
     if not hasattr(dry, a.vary):
         ap.error(f"dry has no constant {a.vary}")
     cycle, steps = step_gaps(a.n, a.position)

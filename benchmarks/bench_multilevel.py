@@ -28,7 +28,8 @@ cost in fine iterations) and each coarse level's iterations. One core. Prints a 
 with date and commit. ``--coarse-tol`` and ``--coarsest`` set ``dry.COARSE_TOL`` and
 ``dry.COARSEST`` for "after" (the variants of the coarse-to-fine start compared in
 docs/performance.md §11), ``--early-update-iterations`` ``dry.EARLY_UPDATE_ITERATIONS`` (0:
-the yielded set's search without early updates).
+the yielded set's search without early updates), ``--no-precondition`` ``dry.PRECONDITION =
+False`` (the plain CG).
 Run "before" with ``MICROPIT_FFTW_PLANNER=estimate`` and ``--only before`` for the plans as
 they were, "after" with ``--only after`` once ``python -m micropit_hpc.spectral plan …`` has
 measured this machine's plans. Timings, not tests.
@@ -89,8 +90,9 @@ def gear_problem(n: int, position: int = 3):
 
 
 #: The module switches that restore the solver as it was before issue 31: ε ≤ tol on every
-#: grid, Polonsky & Keer's restart whenever points enter, no coarse-to-fine start.
-BEFORE = {"TOLERANCE_POINTS": 0, "RESET_ON_ENTRY": True, "COARSEST": 0}
+#: grid, Polonsky & Keer's restart whenever points enter, no coarse-to-fine start, no
+#: preconditioner.
+BEFORE = {"TOLERANCE_POINTS": 0, "RESET_ON_ENTRY": True, "COARSEST": 0, "PRECONDITION": False}
 
 
 #: (points per side, iterations) of each coarse level of the last :func:`solve`, coarsest first
@@ -174,7 +176,12 @@ def main() -> None:
     ap.add_argument("--no-early-every-rung", action="store_true",
                     help="'after' with dry.EARLY_EVERY_RUNG = False: early updates in the "
                          "first rung only")
+    ap.add_argument("--no-precondition", action="store_true",
+                    help="'after' with dry.PRECONDITION = False: the plain CG throughout (the "
+                         "solver before the FFT preconditioner)")
     args = ap.parse_args()
+    if args.no_precondition:
+        dry.PRECONDITION = False
     if args.cold_rungs is not None:
         dry.COLD_RUNGS = args.cold_rungs
     if args.no_early_every_rung:
@@ -191,7 +198,8 @@ def main() -> None:
           f"{source_commit()}, one core, median of {args.repeat}\n")
     print(f"dry.COARSEST = {dry.COARSEST}, dry.COARSE_TOL = {dry.COARSE_TOL}, "
           f"dry.EARLY_UPDATE_ITERATIONS = {dry.EARLY_UPDATE_ITERATIONS}, dry.COLD_RUNGS = "
-          f"{dry.COLD_RUNGS}, dry.EARLY_EVERY_RUNG = {dry.EARLY_EVERY_RUNG} ('after')\n")
+          f"{dry.COLD_RUNGS}, dry.EARLY_EVERY_RUNG = {dry.EARLY_EVERY_RUNG}, dry.PRECONDITION = "
+          f"{dry.PRECONDITION} ('after')\n")
     print("| grid | solver | tol | iterations (fine) | fine-equivalent | coarse levels | "
           "time [s] | ms per fine it. | pressure error | contact area | plastic |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")

@@ -398,6 +398,71 @@ def test_a_warm_solve_makes_no_early_updates(monkeypatch):
     assert np.array_equal(warm.pressure, same.pressure)
 
 
+def test_the_stiffness_response_inverts_the_response():
+    """ElasticHalfSpaces.stiffness_response (the preconditioner's S = E'κ/4 per mode) applied
+    to the displacement of a pressure gives that pressure less its mean, to round-off, on a
+    window that is not square."""
+    g = Grid(96, 80, 3e-4, 2.5e-4)
+    rng = np.random.default_rng(5)
+    p = rng.random(g.shape) * 1e9
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    u = hs.displacement(p)
+    back = hs.stiffness_response(u)
+    assert np.abs(back - (p - p.mean())).max() <= 1e-12 * p.max()
+
+
+@pytest.mark.parametrize("p_lim_share", [0.45, math.inf])
+def test_the_preconditioned_cg_finds_the_same_answer_in_fewer_iterations(p_lim_share,
+                                                                         monkeypatch):
+    """dry.PRECONDITION: the CG preconditioned by the inverse response (after the first rung
+    of the yielded set's search, and once the contact set holds) ends on the same yielded set
+    as the plain CG, its pressure no farther from a tight reference, in fewer iterations
+    (0.77 of them with 9–14 % of the window at the cap, 0.67–0.73 elastic, over three 256²
+    surfaces at the scene's tolerance; 0.85 required)."""
+    from micropit_hpc.lubrication import dry
+
+    pre_its = plain_its = 0
+    for seed in (1, 2, 3):
+        g, gap0 = rough_gap(seed, 256)
+        hs = ElasticHalfSpaces(g, E_PRIME)
+        P = 1.0e9
+        p_lim = p_lim_share * solve_dry_contact(gap0, hs, P, tol=TOL,
+                                                max_iter=MAX_ITER).pressure.max()
+        ref = solve_dry_contact(gap0, hs, P, p_lim, tol=1e-12, max_iter=MAX_ITER).pressure
+        monkeypatch.setattr(dry, "PRECONDITION", True)
+        pre = solve_dry_contact(gap0, hs, P, p_lim, tol=TOL, max_iter=MAX_ITER)
+        monkeypatch.setattr(dry, "PRECONDITION", False)
+        plain = solve_dry_contact(gap0, hs, P, p_lim, tol=TOL, max_iter=MAX_ITER)
+        assert np.array_equal(pre.pressure >= p_lim, ref >= p_lim)
+        assert np.array_equal(plain.pressure >= p_lim, ref >= p_lim)
+        err_pre = np.linalg.norm(pre.pressure - ref) / np.linalg.norm(ref)
+        err_plain = np.linalg.norm(plain.pressure - ref) / np.linalg.norm(ref)
+        assert err_pre <= err_plain
+        assert pre.error <= TOL and pre.pressure.max() <= p_lim
+        assert pre.pressure.mean() == pytest.approx(P, rel=1e-12)
+        pre_its, plain_its = pre_its + pre.iterations, plain_its + plain.iterations
+    assert pre_its < 0.85 * plain_its
+
+
+def test_a_loose_solve_is_not_preconditioned(monkeypatch):
+    """Every phase of a solve looser than dry.PRECONDITION_TOL runs the plain CG (there the
+    preconditioned pressures made the yielded set flip at every update): a 1e-4 solve is the
+    same bit for bit with the preconditioner switched on or off."""
+    from micropit_hpc.lubrication import dry
+
+    g, gap0 = rough_gap(3)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    P = 1.0e9
+    p_lim = 0.45 * solve_dry_contact(gap0, hs, P, tol=TOL, max_iter=MAX_ITER).pressure.max()
+    assert dry.PRECONDITION_TOL < 1e-4
+    monkeypatch.setattr(dry, "PRECONDITION", True)
+    on = solve_dry_contact(gap0, hs, P, p_lim, tol=1e-4, max_iter=MAX_ITER)
+    monkeypatch.setattr(dry, "PRECONDITION", False)
+    off = solve_dry_contact(gap0, hs, P, p_lim, tol=1e-4, max_iter=MAX_ITER)
+    assert on.iterations == off.iterations
+    assert np.array_equal(on.pressure, off.pressure)
+
+
 def test_a_failed_solve_reports_the_iterations_it_spent():
     """A solve stopped by max_iterations says so, with the iterations it spent, a coarse
     level's included (at 10 the 64² level fails after its 5, half the budget, and the fine

@@ -90,6 +90,22 @@ def test_compiled_stages_equal_the_numpy_stages():
             assert_rounding_close(b[i], a[i], scale, what=f"direction field {i}")
         assert np.all(b[2][~on] == 0) and np.array_equal(b[2], b[4])
     t_new = a[2]
+    # the preconditioned direction: t = z − shift + β t on the contact, 0 elsewhere
+    z = u * 1e3
+    for beta in (0.0, 0.37):
+        shift = 0.21 * float(z[on].mean())
+        _, _, a, b = both("direction", z, p, t, beta, buf, shift)
+        scale = np.abs(z) + abs(shift) + np.abs(beta * t)
+        for i in (2, 4):
+            assert_rounding_close(b[i], a[i], scale, what=f"shifted direction field {i}")
+        assert np.all(b[2][~on] == 0) and np.array_equal(b[2], b[4])
+    # masked: the preconditioner's input, g on the contact and 0 elsewhere: exact
+    _, _, a, b = both("masked", gg, p, buf)
+    assert np.array_equal(b[2], a[2]) and np.array_equal(a[2], np.where(on, gg, 0.0))
+    # preconditioned_sums: (Σ z, Σ g z) on the contact
+    ra, rb, _, _ = both("preconditioned_sums", z, gg, p)
+    for x, y, terms, what in zip(ra, rb, (z[on], (gg * z)[on]), ("Σ z", "Σ g z"), strict=True):
+        assert_sum_close(y, x, np.abs(terms), what, exact=terms)
     # project: (Σ r on the contact, Σ r t, Σ t, Σ g t): sums of the same terms
     ra, rb, _, _ = both("project", u, t_new, gg, p)
     for x, y, terms, what in zip(ra, rb, (u[on], u * t_new, t_new, gg * t_new),

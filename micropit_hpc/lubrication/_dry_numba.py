@@ -47,13 +47,33 @@ def centre(g, p, mean):
 
 
 @njit(cache=True, fastmath=FAST)
-def direction(g, p, t, beta, out):
-    """t = (g + β t) on the contact points, 0 elsewhere (β = 0: steepest descent), written to
-    ``t`` and to ``out`` (the transform's input buffer)."""
+def direction(g, p, t, beta, out, shift):
+    """t = (g − shift + β t) on the contact points, 0 elsewhere (β = 0: steepest descent),
+    written to ``t`` and to ``out`` (the transform's input buffer)."""
     for i in range(t.size):
-        v = g[i] + beta * t[i] if p[i] > 0.0 else 0.0
+        v = g[i] - shift + beta * t[i] if p[i] > 0.0 else 0.0
         t[i] = v
         out[i] = v
+
+
+@njit(cache=True, fastmath=FAST)
+def masked(g, p, out):
+    """out = g on the contact points, 0 elsewhere (the preconditioner's input)."""
+    for i in range(g.size):
+        out[i] = g[i] if p[i] > 0.0 else 0.0
+
+
+@njit(cache=True, fastmath=FAST)
+def preconditioned_sums(z, g, p):
+    """(Σ z, Σ g z) over the contact points: the preconditioned residual's mean and its
+    product with the residual."""
+    sz = 0.0
+    gz = 0.0
+    for i in range(z.size):
+        if p[i] > 0.0:
+            sz += z[i]
+            gz += g[i] * z[i]
+    return sz, gz
 
 
 @njit(cache=True, fastmath=FAST)

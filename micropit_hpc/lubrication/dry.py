@@ -134,6 +134,21 @@ class ElasticHalfSpaces:
             return self._fft.convolve(self._transfer, p)
         return self.slab.filtered(p, self._transfer)
 
+    def stiffness_response(self, f: np.ndarray | None = None) -> np.ndarray:
+        """The inverse response applied to ``f``: irfft2((E'κ/4) · rfft2(f)), the pressure whose
+        displacement is f (less its mean), as a view of the transform's output buffer like
+        :meth:`response` (``f`` None: the field in :attr:`input_buffer`). The preconditioner of
+        the contact's CG (:func:`_polonsky_keer`). Collective with a slab."""
+        if not self.distributed:
+            return self._fft.convolve(self._stiffness_transfer, f)
+        return self.slab.filtered(f, self._stiffness_transfer)
+
+    @cached_property
+    def _stiffness_transfer(self) -> np.ndarray:
+        """:attr:`stiffness` in the layout of :meth:`stiffness_response`'s transform."""
+        return (self.slab.interleaved(self.stiffness) if self.distributed
+                else self._fft.interleaved(self.stiffness))
+
     @cached_property
     def self_compliance(self) -> float:
         """K₀ [m/Pa]: the combined displacement of one cell under unit pressure on that cell
@@ -181,6 +196,31 @@ RESET_ON_ENTRY = False
 #: the restart the whole solve took 339; tests/test_dry_contact.py).
 STALL_ITERATIONS = 200
 
+#: Whether the CG is preconditioned by the inverse response (Vollebregt's FFT preconditioner,
+#: J. Comput. Phys. 257 (2014) 333–351: the direction from S(g on the contact), S = E'κ/4 per
+#: mode, one more transform per iteration; :func:`_polonsky_keer`) in the phases of a solve
+#: whose tolerance is at most :data:`PRECONDITION_TOL`: from their start in every rung of the
+#: yielded set's search after the first (their early updates included) and at the full
+#: tolerance; in the first rung's full solves, and in a contact with no point at the cap, once
+#: the contact set has held for :data:`PRECONDITION_STEADY` iterations; never in the first
+#: rung's early updates, whose set it made flip back and forth (the paper gear at 2048²: all
+#: 32 early updates, ±5,000 points each, where 7 found the set without it). While points still
+#: enter and leave the contact it slows the CG (a random rough surface preconditioned from
+#: the start: 1.33× and 1.46× the iterations per doubling, against 1.21× without it); on a set
+#: that holds it cuts the iterations that grow with the grid (the gear's cold step: 1.16×
+#: instead of 1.50× from 1024² to 2048²; docs/performance.md §11, "The preconditioner on a
+#: set that holds"). False: the plain CG throughout.
+PRECONDITION = True
+#: Iterations the contact set must hold (no point entering or leaving) before an adaptive solve
+#: turns the preconditioner on.
+PRECONDITION_STEADY = 1
+#: No phase looser than this relative residual is preconditioned: from a loose start three
+#: preconditioned iterations left pressures whose yielded set flipped back and forth at every
+#: early update (the 1024² level inside the paper gear's 2048² solve, its rung at 7e-4: 12
+#: updates, ±800 points each), and the mixed model's 1e-3 scan trials took more iterations
+#: (4 327 → 5 196 over a 64² position's cycle).
+PRECONDITION_TOL = 1e-5
+
 #: Early updates of the yielded set in a cold solve (:func:`solve_dry_contact` without
 #: ``p_init``, and each level of its coarse-to-fine start): while the inexact search's set
 #: still changes, it is updated after this many CG iterations instead of after an elastic
@@ -225,16 +265,27 @@ class NumpyStages:
         np.multiply(g, g, out=self._tmp)
         return self._tmp.sum(where=self._mask)
 
-    def direction(self, g, p, t, beta, out):
-        """t = g + β t on the contact, 0 elsewhere; also into ``out``."""
+    def direction(self, g, p, t, beta, out, shift=0.0):
+        """t = g − shift + β t on the contact, 0 elsewhere; also into ``out``."""
         if beta:
             t *= beta
             t += g
         else:
             t[...] = g
+        if shift:
+            t -= shift
         np.multiply(t, self._mask, out=t)
         if out is not t:
             out[...] = t
+
+    def masked(self, g, p, out):
+        """out = g on the contact, 0 elsewhere (the preconditioner's input)."""
+        np.multiply(g, self._mask, out=out)
+
+    def preconditioned_sums(self, z, g, p):
+        """(Σ z, Σ g z) over the contact."""
+        np.multiply(g, z, out=self._tmp)
+        return z.sum(where=self._mask), self._tmp.sum(where=self._mask)
 
     def project(self, r, t, g, p):
         """(Σ r over the contact, Σ r t, Σ t, Σ g t) (t vanishes off the contact)."""
@@ -272,8 +323,15 @@ class CompiledStages:
     def centre(self, g, p, mean):
         return self.k.centre(g.reshape(-1), p.reshape(-1), mean)
 
-    def direction(self, g, p, t, beta, out):
-        self.k.direction(g.reshape(-1), p.reshape(-1), t.reshape(-1), beta, out.reshape(-1))
+    def direction(self, g, p, t, beta, out, shift=0.0):
+        self.k.direction(g.reshape(-1), p.reshape(-1), t.reshape(-1), beta, out.reshape(-1),
+                         shift)
+
+    def masked(self, g, p, out):
+        self.k.masked(g.reshape(-1), p.reshape(-1), out.reshape(-1))
+
+    def preconditioned_sums(self, z, g, p):
+        return self.k.preconditioned_sums(z.reshape(-1), g.reshape(-1), p.reshape(-1))
 
     def project(self, r, t, g, p):
         return self.k.project(r.reshape(-1), t.reshape(-1), g.reshape(-1), p.reshape(-1))
@@ -297,6 +355,7 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
                    tol: float, max_iter: int, p: np.ndarray,
                    excluded: np.ndarray | None, N: int,
                    group: Reductions, stages, work: tuple[np.ndarray, np.ndarray] | None = None,
+                   precondition: str | None = None,
                    ) -> tuple[np.ndarray, np.ndarray, int, float, float]:
     """Elastic load-controlled contact, Polonsky & Keer (1999) eqs. (13)–(22); points in
     ``excluded`` carry no pressure and may not enter. Unlike their δ = 0 after points enter the
@@ -320,7 +379,15 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
     into the transform's input buffer, the responses are read from its output buffer, the
     transforms' normalisation sits in the transfer function, and the load's rescaling of p is
     kept as a factor c (the true pressure is c·p: u(c p) = c u(p), and p > 0 marks the same
-    contact) that the next update applies (docs/performance.md §10)."""
+    contact) that the next update applies (docs/performance.md §10).
+
+    ``precondition``: None, the plain residual g as above; "on": preconditioned CG with
+    Vollebregt's FFT preconditioner (J. Comput. Phys. 257 (2014) 333–351, §4), z = S(g on the
+    contact) with S the inverse response E'κ/4 (:meth:`ElasticHalfSpaces.stiffness_response`),
+    the direction t = (z − z̄) + β t on the contact (z̄ its mean there, so that t keeps the
+    load) and β = Σ g z / Σ g_old z_old: a third transform per iteration; "adapt": plain until
+    the contact set has held for :data:`PRECONDITION_STEADY` iterations, then "on" (the
+    directions restart there). The step, the projection and the stopping rule are the same."""
     allowed = None if excluded is None else ~excluded
     if allowed is not None:
         p[excluded] = 0.0
@@ -337,9 +404,12 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
     else:
         g, t = work
         t.fill(0.0)
-    G_old, conjugate, error, mean = 1.0, False, math.inf, 0.0
+    R_old, conjugate, error, mean = 1.0, False, math.inf, 0.0
     it = best_it = 0
     best = math.inf
+    pre = precondition == "on"
+    steady, last_contact, n_enter = 0, -1.0, 1
+    z_in = None if buf is not None or not precondition else np.empty_like(g0)
     while it < max_iter:
         it += 1
         u = hs.response(p if buf is None else None)
@@ -353,18 +423,37 @@ def _polonsky_keer(g0: np.ndarray, hs: ElasticHalfSpaces, P: float, scale: float
             best, best_it = error, it
         elif it - best_it >= STALL_ITERATIONS:     # stalled: restart the directions
             conjugate, best_it = False, it
+        if precondition == "adapt" and not pre:
+            # on once the contact set has held (no point in or out) for PRECONDITION_STEADY
+            # iterations; the directions restart there
+            steady = steady + 1 if n_contact == last_contact and not n_enter else 0
+            last_contact = n_contact
+            if steady >= PRECONDITION_STEADY:
+                pre, conjugate = True, False
         while True:
-            stages.direction(g, p, t, G / G_old if conjugate else 0.0,
-                             t if buf is None else buf)
+            source, shift, R = g, 0.0, G
+            if pre:
+                # z = S(g on the contact), S the inverse response; the direction is z less its
+                # mean over the contact, and R = Σ g z replaces G in β (Σ g = 0 there)
+                stages.masked(g, p, z_in if buf is None else buf)
+                z = hs.stiffness_response(z_in)
+                z_sum, gz = group.sums(*stages.preconditioned_sums(z, g, p))
+                if gz > 0.0:
+                    source, shift, R = z, z_sum / n_contact, gz
+                else:       # no descent in it at round-off level: the plain residual
+                    conjugate = False
+            stages.direction(source, p, t, R / R_old if conjugate else 0.0,
+                             t if buf is None else buf, shift)
             r = hs.response(t if buf is None else None)
             r_sum, rt, t_sum, gt = group.sums(*stages.project(r, t, g, p))
             if gt > 0.0 or not conjugate:
                 break
             # a kept direction that no longer descends (Σ g t ≤ 0: the step would go
             # backwards, and points entering at −τ g would enter with negative pressure):
-            # this iteration restarts from steepest descent, whose Σ g t = G > 0
+            # this iteration restarts from steepest descent, whose Σ g t = G > 0 (Σ g z > 0
+            # preconditioned)
             conjugate = False
-        G_old = G
+        R_old = R
         curvature = rt - r_sum / n_contact * t_sum     # Σ (r − r̄_contact) t
         if curvature <= 0.0:   # no descent left at round-off level
             break
@@ -544,12 +633,14 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
     more than the residual ε·rms(g0 − mean g0)) leave it, until the set no longer changes.
     The set is first sought with inexact solves, at √tol (and, in a solve started from a
     coarser grid's pressure with points at the cap, then at tol^(3/4): :data:`COLD_RUNGS`),
-    and confirmed at tol. ``kernel``: the implementation of the iteration's elementwise stages
-    (:func:`iteration_stages`; None: :data:`DEFAULT_KERNEL`); the compiled and the NumPy stages
-    agree to round-off. ``p_init`` warm-starts the iteration (e.g. the previous time step's
-    pressure); ``max_iter`` bounds the total number of CG steps. ``tol`` and
-    ``max_iter`` are the scene's ``lubrication.tolerance`` and ``lubrication.max_iterations``
-    (:class:`~micropit_hpc.scene.LubricationSpec`), which the callers pass.
+    and confirmed at tol. The phases at a tolerance of at most :data:`PRECONDITION_TOL` run
+    the preconditioned CG (:data:`PRECONDITION`). ``kernel``: the implementation of the
+    iteration's elementwise stages (:func:`iteration_stages`; None: :data:`DEFAULT_KERNEL`);
+    the compiled and the NumPy stages agree to round-off. ``p_init`` warm-starts the iteration
+    (e.g. the previous time step's pressure); ``max_iter`` bounds the total number of CG
+    steps. ``tol`` and ``max_iter`` are the scene's ``lubrication.tolerance`` and
+    ``lubrication.max_iterations`` (:class:`~micropit_hpc.scene.LubricationSpec`), which the
+    callers pass.
 
     ``early_updates``: whether the yielded set's search starts with early updates, every
     :data:`EARLY_UPDATE_ITERATIONS` CG iterations while the set changes (None: for a cold
@@ -683,8 +774,12 @@ def solve_dry_contact(gap0: np.ndarray, half_spaces: ElasticHalfSpaces, mean_pre
             excluded = held if excluded is None else excluded | held
         capped = early_left > 0 and phase_tol > tol and (first_rung or EARLY_EVERY_RUNG)
         budget = min(max_iter - used, EARLY_UPDATE_ITERATIONS) if capped else max_iter - used
+        precondition = (None if not PRECONDITION or phase_tol > PRECONDITION_TOL
+                        or (capped and first_rung) else
+                        "adapt" if first_rung else "on")
         p, g, it, error, approach = _polonsky_keer(g_fixed, hs, P_el, scale, phase_tol,
-                                                   budget, p, excluded, N, group, stages, work)
+                                                   budget, p, excluded, N, group, stages, work,
+                                                   precondition)
         used += it
         early = capped and error > phase_tol and it == budget
         if error > phase_tol and not early:
