@@ -467,8 +467,8 @@ class PositionCycle:
         level = "smooth" if p_mean == 0.0 else self.level
         free = self._open_pits(t, p_mean) if level != "smooth" else None
         try:
-            pressure, clearance, phi, iters, touch = self._CONTACT[level](self, r_now, p_mean, t,
-                                                                   p_init, warm, free)
+            pressure, clearance, phi, iters, touch = self._CONTACT[level](
+                self, r_now, p_mean, t, p_init, warm, free)
         except ContactError:
             if p_init is None and not warm:      # a cold start failed: that stands
                 raise
@@ -477,8 +477,8 @@ class PositionCycle:
             # steps fall (a quick-scene step at 0.03 p0: residual 1e-3 after 5000 iterations,
             # converged from cold); once more from cold, the same on every rank of the group
             fresh = None if warm is None else {}
-            pressure, clearance, phi, iters, touch = self._CONTACT[level](self, r_now, p_mean, t,
-                                                                   None, fresh, free)
+            pressure, clearance, phi, iters, touch = self._CONTACT[level](
+                self, r_now, p_mean, t, None, fresh, free)
             if warm is not None:
                 warm.clear()
                 warm.update(fresh)
