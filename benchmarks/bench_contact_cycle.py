@@ -33,14 +33,11 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
-from bench_early_updates import parse_value  # noqa: E402
+from bench_early_updates import parse_value, position_cycle  # noqa: E402
 
 from micropit_hpc import cycle as cycle_module  # noqa: E402
 from micropit_hpc import source_commit  # noqa: E402
-from micropit_hpc.cycle import PositionCycle  # noqa: E402
 from micropit_hpc.lubrication import dry, mixed  # noqa: E402
-from micropit_hpc.plan import make_plan  # noqa: E402
-from micropit_hpc.scene import load_scene  # noqa: E402
 
 #: iterations of each top-level dry solve of the current cycle (not the coarse levels')
 ITERATIONS: list[int] = []
@@ -52,20 +49,13 @@ def _counted(*args, **kwargs):
     return sol
 
 
-def cycle_for(scene_path: str, n: int, position: int) -> PositionCycle:
-    base = load_scene(scene_path)
-    scene = dataclasses.replace(base, window=dataclasses.replace(base.window, nx=n, ny=None))
-    plan = make_plan(scene, positions=[position], life=False)
-    return PositionCycle(plan.study, position, window=plan.window)
-
-
 def shaved(surfaces, depth: float):
     """Each surface with its heights capped ``depth`` below its highest point."""
     return tuple(dataclasses.replace(s, heights=np.minimum(s.heights, s.heights.max() - depth))
                  for s in surfaces)
 
 
-def run(cyc: PositionCycle, surfaces, worn):
+def run(cyc, surfaces, worn):
     """(iterations, solves, wall, pressures) of the cold cycle and of the warm one."""
     warm, out = {}, []
     for surf in (surfaces, worn):
@@ -102,7 +92,7 @@ def main() -> None:
     saved = getattr(dry, args.vary)
     try:
         for n in args.n:
-            cyc = cycle_for(args.scene, n, args.position)
+            cyc = position_cycle(n, args.position, args.scene)
             fresh = cyc.surfaces
             worn = shaved(fresh, args.shave_nm * 1e-9)
             run(cyc, fresh, worn)            # warm-up: plans, compiled kernels

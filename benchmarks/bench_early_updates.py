@@ -29,12 +29,19 @@ from micropit_hpc.scene import load_scene
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def step_gaps(n: int, position: int):
-    """(cycle, [(step, gap0, mean pressure)]) of the paper gear's ``position`` on n × n."""
-    base = load_scene(str(ROOT / "scenes" / "paper_gear_z23.toml"))
+def position_cycle(n: int, position: int,
+                   scene_path: str = str(ROOT / "scenes" / "paper_gear_z23.toml")):
+    """The PositionCycle of ``position`` of the scene (default the paper gear) on its window
+    sampled n × n."""
+    base = load_scene(scene_path)
     scene = replace(base, window=replace(base.window, nx=n, ny=None))
     plan = make_plan(scene, positions=[position], life=False)
-    cycle = PositionCycle(plan.study, position, window=plan.window)
+    return PositionCycle(plan.study, position, window=plan.window)
+
+
+def step_gaps(n: int, position: int):
+    """(cycle, [(step, gap0, mean pressure)]) of the paper gear's ``position`` on n × n."""
+    cycle = position_cycle(n, position)
     return cycle, [(j, cycle.rough_gap(j), cycle.mean_pressure(cycle.centre(cycle.time(j))))
                    for j in range(cycle.steps)]
 

@@ -47,7 +47,6 @@ import datetime  # noqa: E402
 import statistics  # noqa: E402
 import sys  # noqa: E402
 import time  # noqa: E402
-from dataclasses import replace  # noqa: E402
 from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
@@ -75,14 +74,9 @@ def random_problem(n: int, pressure: float):
 
 def gear_problem(n: int, position: int = 3):
     """(gap0, half-spaces, mean pressure, p_lim) of the paper gear's middle step on n × n."""
-    from micropit_hpc.cycle import PositionCycle
-    from micropit_hpc.plan import make_plan
-    from micropit_hpc.scene import load_scene
+    from bench_early_updates import position_cycle
 
-    base = load_scene(str(ROOT / "scenes" / "paper_gear_z23.toml"))
-    scene = replace(base, window=replace(base.window, nx=n, ny=None))
-    plan = make_plan(scene, positions=[position], life=False)
-    cycle = PositionCycle(plan.study, position, window=plan.window)
+    cycle = position_cycle(n, position)
     middle = (cycle.steps + 1) // 2 - 1
     gap0 = cycle.rough_gap(middle)
     p_mean = cycle.mean_pressure(cycle.centre(cycle.time(middle)))
