@@ -519,7 +519,8 @@ class LubricationSpec:
         lo=0, hi=2)
     h_min: float = setting(
         "h_min_um", "float", "Clearance at or below which a point is in solid "
-        "contact.", "µm", UM, default=0.0, lo=0, hi=100)
+        "contact (so is a point whose clearance is 0 to the dry solve's accuracy, a few pm: "
+        "docs/contact.md).", "µm", UM, default=0.0, lo=0, hi=100)
     p_lim_hardness: float = setting(
         "p_lim_hardness", "float", "Pressure cap as a fraction of the "
         "smaller hardness: p_lim = this × H.", default=0.6, lo=0, hi=10, lo_open=True)
