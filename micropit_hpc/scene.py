@@ -67,6 +67,20 @@ LUBRICATION_MODELS = ("auto", *LEVELS)
 COUNTING = ("sliding", "rainflow")
 #: Time integration of the life (micropit_hpc.life): the adaptive split or the paper's blocks.
 INTEGRATIONS = ("adaptive", "paper")
+
+#: The process length of the Dang Van criterion [m] when the scene does not give
+#: ``fatigue.process_length_um``, by ``life.integration`` [choice, beyond the paper]: 5 µm, a
+#: hardened steel's critical distance averaged over 2–3 of it, in the converged default (with it
+#: the wear–fatigue competition converges with the grid; docs/life.md, "A process length for the
+#: criterion"); 0, the paper's pointwise criterion, in its literal numerics.
+PROCESS_LENGTH_DEFAULT = {"adaptive": 5.0 * UM, "paper": 0.0}
+
+
+def default_process_length(integration: str) -> float:
+    """ℓ [m] for a scene that does not name one (:data:`PROCESS_LENGTH_DEFAULT`)."""
+    return PROCESS_LENGTH_DEFAULT[integration]
+
+
 #: How the wear of a sub-block is integrated: implicit (micropit_hpc.implicit_wear), or one of
 #: the integrations of a single rate (micropit_hpc.wear).
 WEAR_INTEGRATIONS = ("implicit", *RATE_INTEGRATIONS)
@@ -596,7 +610,7 @@ class FatigueSpec:
         "local wear and pit updates leave, which m4 (∝ k⁴) would otherwise count as peaks "
         "(λ_c fell from 33 to 2.6 cells after 3 M cycles of wear, docs/life.md). 2 keeps every "
         "resolved wavelength (down to Nyquist).", default=4.0, lo=2, hi=1e4)
-    process_length: float = setting(
+    process_length: float | None = setting(
         "process_length_um", "float", "[choice, beyond the paper] Side ℓ of the material's "
         "process area: the stresses are averaged over the surface plane before the Dang Van "
         "criterion, by a Gaussian of the same second moment as an ℓ × ℓ square "
@@ -604,7 +618,10 @@ class FatigueSpec:
         "process volume and critical-distance methods of fretting fatigue do. It gives the "
         "criterion a length of the material's, so that pits stop following the grid cell "
         "once the cell is below it (docs/life.md, \"A process length for the criterion\"). "
-        "0 is the paper's pointwise criterion.", "µm", UM, default=0.0, lo=0, hi=1e4)
+        "Default: 5 µm (a hardened steel's critical distance, docs/model.md §4.3) with "
+        "`life.integration = \"adaptive\"`, the converged default; 0, the paper's pointwise "
+        "criterion, with `\"paper\"`, its literal numerics. 0 is always allowed.", "µm", UM,
+        default=None, lo=0, hi=1e4)
     n_min: float = setting(
         "n_min", "float", "The fewest cycles the S–N line's data cover: below them "
         "the line is extrapolated (it predicts failure within one cycle at τ = B/√3, below "
@@ -994,6 +1011,8 @@ def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
     fatigue: FatigueSpec = _FATIGUE.read(doc.get("fatigue"), source)
     wear: WearSpec = _WEAR.read(doc.get("wear"), source)
     life: LifeSpec = _LIFE.read(doc.get("life"), source)
+    if fatigue.process_length is None:
+        fatigue = replace(fatigue, process_length=default_process_length(life.integration))
     if life.block > life.cycles:
         raise SceneError(source, f"the block ΔN = {life.block / 1e6:g} M is longer than the "
                                  f"whole life of {life.cycles / 1e6:g} M cycles",

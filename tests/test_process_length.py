@@ -86,12 +86,27 @@ def test_a_single_mode_is_scaled_by_the_gaussian_at_every_depth(body):
     np.testing.assert_allclose(-s1[4, 0], sign * MU * p_avg, rtol=0, atol=1e-9 * p_bar)
 
 
+def test_the_default_length_follows_the_integration():
+    """Without the key a scene gets 5 µm in the converged default (``life.integration =
+    "adaptive"``) and 0, the paper's pointwise criterion, in its literal numerics (``"paper"``);
+    a value given is kept in both, 0 included."""
+    for integration, default in (("adaptive", 5.0 * 1e-6), ("paper", 0.0)):   # a file's 5 µm
+        for ell_um, want in ((None, default), (0.0, 0.0), (10.0, 10.0 * 1e-6)):   # µm as read
+            doc = _doc(ell_um=ell_um)
+            doc["life"]["integration"] = integration
+            assert scene_from_dict(doc, "gear.toml").fatigue.process_length == want, (
+                integration, ell_um)
+
+
 def test_zero_length_is_the_pointwise_criterion_bit_for_bit():
-    """ℓ = 0 (the default) applies nothing: the same stresses bit for bit as a scene that does
-    not name the key."""
-    plain = _cycle(32, None, layers=4)
+    """ℓ = 0 applies nothing: the same stresses bit for bit as the literal twin's scene, which
+    does not name the key (its default is the pointwise criterion)."""
+    doc = _doc(32, 4)
+    doc["life"]["integration"] = "paper"
+    plain = PositionCycle(contact_study(scene_from_dict(doc, "gear.toml")), 5)
     zero = _cycle(32, 0.0, layers=4)
     assert plain.scene.fatigue.process_length == 0.0 and zero.process_transfer(slice(0, 17)) is None
+    assert _cycle(32, None, layers=4).process_transfer(slice(0, 17)) is not None
     f = plain.solve_step(plain.steps // 2)
     for body in (1, 2):
         np.testing.assert_array_equal(zero.stresses(f, body), plain.stresses(f, body))

@@ -64,8 +64,9 @@ def _paper_scene(root, name):
 @pytest.mark.parametrize("name", PAPER_SCENES)
 def test_the_twin_is_the_scene_in_the_papers_numerics(tmp_path, name):
     """runs/scenes/<name>_paper.toml loads, runs `paper` (whose wear is the explicit ΔN·Δh
-    whatever wear_integration says, micropit_hpc.life.run_block) and equals the scene in
-    everything else."""
+    whatever wear_integration says, micropit_hpc.life.run_block) with the paper's pointwise
+    criterion (the default process length of `paper`), and equals the scene in everything
+    else."""
     root = _script_root(tmp_path)
     out = _paper_scene(root, name)
     assert out.returncode == 0, out.stderr
@@ -74,8 +75,10 @@ def test_the_twin_is_the_scene_in_the_papers_numerics(tmp_path, name):
     scene = load_scene(SCENES / f"{name}.toml")
     assert twin.life.integration == "paper"
     assert twin.life != scene.life
+    # the one key changes the criterion's default length too: pointwise, as the paper
+    assert (twin.fatigue.process_length, scene.fatigue.process_length) == (0.0, 5.0 * 1e-6)
     assert dataclasses.replace(twin, source=scene.source, life=dataclasses.replace(
-        twin.life, integration="adaptive")) == scene
+        twin.life, integration="adaptive"), fatigue=scene.fatigue) == scene
     assert twin.name == scene.name
 
 
