@@ -48,7 +48,7 @@ from micropit_hpc.parallel import SerialComm
 from micropit_hpc.parallel.petsc import event
 from micropit_hpc.parallel.slab import Slab
 from micropit_hpc.plan import Window, choose_level
-from micropit_hpc.spectral import fourier_shift, rfft_plan, to_material_frame
+from micropit_hpc.spectral import discrete_gaussian, fourier_shift, rfft_plan, to_material_frame
 from micropit_hpc.surfaces import Topography
 from micropit_hpc.surfaces.bodies import body_surface
 from micropit_hpc.wear import WearRate, archard_wear, solid_weight
@@ -344,8 +344,7 @@ class PositionCycle:
         self._whole: dict[int, HalfSpaceStress] = {}   # stress_by_steps
         self._macro_ellipse: dict[int, EllipticalContactField] = {}
         ell = scene.fatigue.process_length       # process_transfer, on the whole half spectrum
-        self._process_gauss = (np.exp(-(ell * ell / 24.0) * g.kappa ** 2) if ell > 0.0
-                               else None)
+        self._process_gauss = discrete_gaussian(g, ell * ell / 12.0) if ell > 0.0 else None
 
     def set_surfaces(self, surfaces: tuple[Topography, Topography],
                      pits: tuple[np.ndarray, np.ndarray] | None = None) -> None:
@@ -616,8 +615,10 @@ class PositionCycle:
     def process_transfer(self, cols: slice) -> np.ndarray | None:
         """The averaging over the material's process area (``fatigue.process_length_um`` = ℓ)
         as a transfer function on the half-spectrum columns ``cols``: a Gaussian of the
-        second moment of an ℓ × ℓ square, σ² = ℓ²/12, so Ĝ(k) = exp(−|k|² ℓ²/24), Ĝ(0) = 1
-        (the load and the macro field unchanged). The stresses are linear in the tractions
+        second moment of an ℓ × ℓ square, σ² = ℓ²/12 along each axis, in its discrete form
+        (:func:`~micropit_hpc.spectral.discrete_gaussian`: a positive kernel on any grid, so
+        the averaged pressure stays non-negative; Ĝ → exp(−|k|² ℓ²/24) as the cell shrinks),
+        Ĝ(0) = 1 (the load and the macro field unchanged). The stresses are linear in the tractions
         and the kernels commute with a convolution in the surface plane, so filtering the
         tractions' spectra filters every stress component at every depth alike. None for
         ℓ = 0, the paper's pointwise criterion (Morales-Espejel et al. 2018 §2: Dang Van at

@@ -245,15 +245,17 @@ def test_an_implicit_wear_step_accepted_unsolved_is_flagged():
 
 @pytest.mark.slow
 def test_a_run_reports_the_range_in_summary_log_and_results(tmp_path, capsys):
-    """The quick gear scene's position 2 (single-pair zone, dry, asperity stresses far past the
-    S–N line's data: more than 90 % of the first block's damage from N < n_min) in a short
-    run: summary.csv carries the new columns and its flags, the log one warning line per
+    """The quick gear scene's position 2 (single-pair zone, dry, pointwise criterion, asperity
+    stresses far past the S–N line's data: more than 90 % of the first block's damage from
+    N < n_min) in a short run: summary.csv carries the new columns and its flags, the log one warning line per
     block that is outside the range, results.h5 the same flags."""
     import h5py
 
     doc = tomllib.loads((SCENES / "quick.toml").read_text())
     doc["window"]["n"] = 32
     doc["life"].update(cycles_M=2.0, block_M=1.0)
+    # the paper's pointwise criterion: the scene's 10 µm is under a cell of 32² (11.6 µm)
+    doc["fatigue"]["process_length_um"] = 0.0
     scene = write_scene(tmp_path / "harsh.toml", doc)
     assert main(["run", str(scene), "--out", str(tmp_path / "out"), "--position", "2"]) == 0
     err = capsys.readouterr().err

@@ -17,6 +17,7 @@ from micropit_hpc.conditions import contact_study
 from micropit_hpc.cycle import PositionCycle, StepFields
 from micropit_hpc.errors import MicropitError
 from micropit_hpc.scene import scene_from_dict
+from micropit_hpc.spectral import Grid, discrete_gaussian
 
 MU = 0.08
 
@@ -58,10 +59,10 @@ def _micro(cyc: PositionCycle, f: StepFields, body: int) -> np.ndarray:
 @pytest.mark.parametrize("body", [1, 2])
 def test_a_single_mode_is_scaled_by_the_gaussian_at_every_depth(body):
     """p = p̄[1 + 0.4 cos(k·x)] (k: 5 and 3 periods over the window) with q = ±μp: with
-    ℓ = 10 µm every stress component on every layer is exp(−|k|²ℓ²/24) times the pointwise
-    one (the averaging is a convolution in the plane, and the half-space kernels commute with
-    it); the macro field is the same, and at the surface σ_zz = −(p̃ − p̄), σ_xz = ∓μ(p̃ − p̄)
-    with p̃ the averaged pressure."""
+    ℓ = 10 µm every stress component on every layer is the discrete Gaussian's transfer times
+    the pointwise one (the averaging is a convolution in the plane, and the half-space kernels
+    commute with it); the macro field is the same, and at the surface σ_zz = −(p̃ − p̄),
+    σ_xz = ∓μ(p̃ − p̄) with p̃ the averaged pressure."""
     ell = 10e-6
     pointwise, averaged = _cycle(32, 0.0), _cycle(32, ell * 1e6)
     g = pointwise.grid
@@ -70,9 +71,13 @@ def test_a_single_mode_is_scaled_by_the_gaussian_at_every_depth(body):
     phase = 2 * math.pi * (5 * x + 3 * y)
     p_bar = 1.0e9
     p = p_bar * (1.0 + 0.4 * np.cos(phase))
-    k2 = (2 * math.pi * 5 / (g.nx * g.dx)) ** 2 + (2 * math.pi * 3 / (g.ny * g.dy)) ** 2
-    factor = math.exp(-k2 * ell * ell / 24.0)
+    kx, ky = 2 * math.pi * 5 / (g.nx * g.dx), 2 * math.pi * 3 / (g.ny * g.dy)
+    # the discrete Gaussian of variance ℓ²/12 per axis: exp(−(ℓ²/12Δ²)(1 − cos kΔ)) each
+    factor = math.exp(-ell * ell / 12 * ((1 - math.cos(kx * g.dx)) / g.dx ** 2
+                                         + (1 - math.cos(ky * g.dy)) / g.dy ** 2))
     assert 0.3 < factor < 0.9                       # a real cut, not round-off
+    # near the continuous Gaussian's exp(−|k|²ℓ²/24) for a wave of 6.4 and 10.7 cells
+    assert factor == pytest.approx(math.exp(-(kx * kx + ky * ky) * ell * ell / 24), rel=0.06)
     s0 = _micro(pointwise, _fields(pointwise, p), body)
     s1 = _micro(averaged, _fields(averaged, p), body)
     assert np.abs(s0).max() > 0.1 * p_bar
@@ -84,6 +89,30 @@ def test_a_single_mode_is_scaled_by_the_gaussian_at_every_depth(body):
     sign = 1.0 if body == 1 else -1.0
     np.testing.assert_allclose(-s1[2, 0], p_avg, rtol=0, atol=1e-9 * p_bar)
     np.testing.assert_allclose(-s1[4, 0], sign * MU * p_avg, rtol=0, atol=1e-9 * p_bar)
+
+
+@pytest.mark.parametrize("cells", [0.5, 0.78, 1.56, 3.0, 8.0])
+def test_the_averaging_kernel_is_positive_with_the_squares_second_moment(cells):
+    """The kernel of the averaging (the inverse transform of the cycle's transfer) is
+    non-negative to round-off at every ℓ/Δx, so the averaged pressure of a non-negative map is
+    non-negative (a kernel of the continuous Gaussian's transfer cut at the Nyquist wave has
+    lobes down to −2.6 % of its peak at 1.56 cells); it sums to 1 and has the second moment
+    ℓ²/12 of an ℓ × ℓ square along each axis; and its transfer tends to exp(−|k|²ℓ²/24) as
+    the cell shrinks."""
+    ell, n_cells = 5e-6, 128
+    g = Grid(nx=n_cells, ny=n_cells, lx=n_cells * ell / cells, ly=n_cells * ell / cells)
+    spec = discrete_gaussian(g, ell * ell / 12)
+    kernel = np.fft.irfft2(spec, s=(g.nx, g.ny))
+    assert kernel.min() > -1e-15 and kernel.sum() == pytest.approx(1.0, abs=1e-12)
+    n = np.fft.fftfreq(g.nx, 1.0 / g.nx)
+    for axis in (0, 1):
+        moment = (kernel.sum(axis=1 - axis) * n ** 2).sum()
+        assert moment == pytest.approx(cells ** 2 / 12, rel=1e-9)     # in cells²
+    # its exponent is the continuous one's times a factor in [1 − (kΔ)²/12, 1] per axis
+    # (1 − cos x = x²/2 − x⁴/24 + …), so it tends to exp(−|k|²ℓ²/24) as kΔ → 0
+    kd = np.maximum(np.abs(g.kx) * g.dx, np.abs(g.ky) * g.dy)
+    ratio = np.log(spec[1:]) / (-g.kappa[1:] ** 2 * ell * ell / 24)
+    assert (ratio <= 1 + 1e-12).all() and (ratio >= 1 - kd[1:] ** 2 / 12 - 1e-12).all()
 
 
 def test_the_default_length_follows_the_integration():
@@ -127,9 +156,11 @@ def test_a_pit_edge_converges_with_the_grid_only_over_a_process_area():
     largest value grows by about (2μ/π)·p̄·ln 2 per halving of the cell (a uniform tangential
     traction q on a strip of the half-plane gives σ_x(x, 0) = (2q/π) ln|(x − a)/(x + a)| at
     its surface; Johnson, Contact Mechanics, ch. 2), so a pointwise criterion's result at the rim
-    follows the cell. Averaged over ℓ = 10 µm the same maps give the same surface stresses on
-    64² and 128² to a small fraction of that growth (measured: 1.18 and 1.19 steps per
-    doubling pointwise from 32² to 128², −0.06 and −0.006 averaged)."""
+    follows the cell. Averaged over ℓ = 10 µm the same maps give surface stresses that move
+    by a small fraction of that growth per doubling (measured with the discrete Gaussian of
+    the averaging: 1.18 and 1.19 steps per doubling pointwise from 32² to 128², 0.35 and 0.11
+    averaged, 0.8 and 0.10 from 128² to 256²; the disc's cells, and so the map, differ from
+    grid to grid)."""
     radius, p_bar = 15e-6, 1.0e9
     step = 2 * MU / math.pi * p_bar * math.log(2)      # the log law's growth per doubling
     peak = {}
@@ -142,8 +173,8 @@ def test_a_pit_edge_converges_with_the_grid_only_over_a_process_area():
     averaged = [peak[10.0, n] for n in (32, 64, 128)]
     assert pointwise[1] - pointwise[0] > 0.5 * step
     assert pointwise[2] - pointwise[1] > 0.5 * step
-    assert abs(averaged[2] - averaged[1]) < 0.1 * step
-    assert abs(averaged[1] - averaged[0]) < abs(pointwise[1] - pointwise[0])
+    assert abs(averaged[2] - averaged[1]) < 0.15 * (pointwise[2] - pointwise[1])
+    assert abs(averaged[1] - averaged[0]) < 0.5 * (pointwise[1] - pointwise[0])
 
 
 def test_a_negative_length_is_refused_with_its_key():
