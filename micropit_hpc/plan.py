@@ -340,11 +340,14 @@ def plausibility_warnings(scene: Scene, study: ContactStudy, grid) -> list[str]:
     ell, coarse = scene.fatigue.process_length, max(cell.values())
     cells = ell / coarse
     if 0.0 < ell and cells < PROCESS_MIN_CELLS:
-        out.append(f"{src}: fatigue.process_length_um = {ell * 1e6:.3g} µm is {cells:.2g} "
-                   f"grid cells ({coarse * 1e6:.3g} µm): the averaging keeps "
+        given = "process_length_um" in (scene.document.get("fatigue") or {})
+        whose = "" if given else (f" (the default of life.integration = "
+                                  f"\"{scene.life.integration}\")")
+        out.append(f"{src}: fatigue.process_length_um = {ell * 1e6:.3g} µm{whose} is "
+                   f"{cells:.2g} grid cells ({coarse * 1e6:.3g} µm): the averaging keeps "
                    f"{100 * math.exp(-(math.pi * cells) ** 2 / 24):.0f} % of the shortest "
                    f"wave, so the cell still acts as the process area and the pits can "
                    f"follow the grid (raise window.n until the length spans "
-                   f"{PROCESS_MIN_CELLS:g} cells; "
+                   f"{PROCESS_MIN_CELLS:g} cells, or set the length; "
                    f"docs/life.md, \"A process length for the criterion\")")
     return out

@@ -194,3 +194,15 @@ def test_a_process_length_the_grid_does_not_resolve_is_warned_about():
     assert len(said[4.0]) == 1 and ("fatigue.process_length_um = 4 µm is 1.2 grid cells "
                                     "(3.21 µm): the averaging keeps 53 % of the shortest wave"
                                     in said[4.0][0]), said[4.0]
+
+
+def test_the_default_length_on_a_coarse_window_is_warned_about_as_the_default():
+    """A scene that does not name ℓ and whose cells are coarser than 5 µm / 1.5 (the paper
+    gear's window on 32²: 6.4 µm cells) is told that the length is the default, and which."""
+    from micropit_hpc.plan import make_plan
+
+    said = make_plan(scene_from_dict(_doc(n=32), "gear.toml")).warnings
+    assert len(said) == 1 and ("fatigue.process_length_um = 5 µm (the default of "
+                               "life.integration = \"adaptive\") is 0.78 grid cells"
+                               in said[0]), said
+    assert "or set the length" in said[0]
