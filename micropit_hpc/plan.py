@@ -296,9 +296,10 @@ P0_STEEL_MAX = 8e9
 
 
 #: The fewest grid cells per ``fatigue.process_length_um`` at which the averaging, and not the
-#: cell, sets the shortest length of the stresses: its transfer exp(−k²ℓ²/24) keeps 40 % of the
-#: Nyquist wave π/Δx at 1.5 cells (66 % at one cell). At 1.56 cells (5 µm on the paper gear's
-#: 64² window) the measured wear and A_p were within the convergence bands of 128²
+#: cell, sets the shortest length of the stresses: its discrete Gaussian of variance ℓ²/12
+#: (:func:`~micropit_hpc.spectral.discrete_gaussian`) keeps exp(−(ℓ/Δx)²/6) of the Nyquist
+#: wave π/Δx along an axis, 69 % at 1.5 cells (85 % at one cell). At 1.56 cells (5 µm on the
+#: paper gear's 64² window) the measured wear and A_p were within the convergence bands of 128²
 #: (docs/life.md, "A process length for the criterion").
 PROCESS_MIN_CELLS = 1.5
 
@@ -345,7 +346,7 @@ def plausibility_warnings(scene: Scene, study: ContactStudy, grid) -> list[str]:
                                   f"\"{scene.life.integration}\")")
         out.append(f"{src}: fatigue.process_length_um = {ell * 1e6:.3g} µm{whose} is "
                    f"{cells:.2g} grid cells ({coarse * 1e6:.3g} µm): the averaging keeps "
-                   f"{100 * math.exp(-(math.pi * cells) ** 2 / 24):.0f} % of the shortest "
+                   f"{100 * math.exp(-cells * cells / 6):.0f} % of the shortest "
                    f"wave, so the cell still acts as the process area and the pits can "
                    f"follow the grid (raise window.n until the length spans "
                    f"{PROCESS_MIN_CELLS:g} cells, or set the length; "

@@ -247,8 +247,8 @@ def test_an_implicit_wear_step_accepted_unsolved_is_flagged():
 def test_a_run_reports_the_range_in_summary_log_and_results(tmp_path, capsys):
     """The quick gear scene's position 2 (single-pair zone, dry, pointwise criterion, asperity
     stresses far past the S–N line's data: more than 90 % of the first block's damage from
-    N < n_min) in a short run: summary.csv carries the new columns and its flags, the log one warning line per
-    block that is outside the range, results.h5 the same flags."""
+    N < n_min) in a short run: summary.csv carries the new columns and its flags, the log one
+    warning line per block that is outside the range, results.h5 the same flags."""
     import h5py
 
     doc = tomllib.loads((SCENES / "quick.toml").read_text())

@@ -184,7 +184,7 @@ def test_a_negative_length_is_refused_with_its_key():
 
 def test_a_process_length_the_grid_does_not_resolve_is_warned_about():
     """ℓ = 4 µm on the paper gear's 64² window (3.2 µm cells) is 1.2 cells: the averaging
-    keeps exp(−π²·1.25²/24) = 53 % of the Nyquist wave, so the plan warns; 5 µm (1.56 cells,
+    keeps exp(−1.25²/6) = 77 % of the Nyquist wave, so the plan warns; 5 µm (1.56 cells,
     the measured case that converged) does not."""
     from micropit_hpc.plan import make_plan
 
@@ -192,7 +192,7 @@ def test_a_process_length_the_grid_does_not_resolve_is_warned_about():
             for ell in (4.0, 5.0, 0.0)}
     assert not said[5.0] and not said[0.0], said
     assert len(said[4.0]) == 1 and ("fatigue.process_length_um = 4 µm is 1.2 grid cells "
-                                    "(3.21 µm): the averaging keeps 53 % of the shortest wave"
+                                    "(3.21 µm): the averaging keeps 77 % of the shortest wave"
                                     in said[4.0][0]), said[4.0]
 
 
