@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import csv
 import datetime as dt
+import json
 import math
 import shutil
 import sys
@@ -43,7 +44,9 @@ import paper_mpr  # noqa: E402
 import plot_flank  # noqa: E402
 
 from micropit_hpc import describe_source  # noqa: E402
+from micropit_hpc.errors import MicropitError  # noqa: E402
 from micropit_hpc.io.results import load_results  # noqa: E402
+from micropit_hpc.scene import scene_from_dict  # noqa: E402
 from micropit_hpc.trends import (  # noqa: E402
     FlankPoint,
     Verdict,
@@ -93,10 +96,21 @@ def _write_csv(path: Path, rows: list[dict]) -> None:
         w.writerows(rows)
 
 
+def _process_length_um(scene_json: str) -> str:
+    """The Dang Van criterion's process length ℓ [µm] a run used (``fatigue.process_length_um``
+    or its integration's default, docs/life.md), from the scene document its results carry."""
+    try:
+        scene = scene_from_dict(json.loads(scene_json), "results.h5")
+    except (ValueError, MicropitError):      # a run of older code whose scene no longer loads
+        return "?"
+    return f"{scene.fatigue.process_length * 1e6:.3g}"
+
+
 def _run_info(run: Path) -> dict:
     res = load_results(run)
     a = res.attrs
     return {"wall_s": float(a.get("wall_s", math.nan)), "ranks": int(a.get("ranks", 0)),
+            "ell_um": _process_length_um(str(a.get("scene", "{}"))),
             "status": str(a.get("status", "?")), "items": res.items.rows,
             "restarted": int(a.get("restarted_from_block", 0)),
             "created": str(a.get("created_utc", "?"))[:16].replace("T", " "),
@@ -628,11 +642,12 @@ def main(argv: list[str] | None = None) -> int:
             if info["restarted"]:
                 restarted = True
                 status += f" (restarted after block {info['restarted']}*)"
-            runs_info.append([name, info["items"], info["ranks"], f"{info['wall_s']:.0f}",
+            runs_info.append([name, info["items"], info["ell_um"], info["ranks"],
+                              f"{info['wall_s']:.0f}",
                               f"{info['item_s'] / max(info['ranks'], 1):.0f}",
                               status, info["created"], info["commit"], _tree(a.runs, name)])
         else:
-            runs_info.append([name, "", "", "", "", "missing", "", "", ""])
+            runs_info.append([name, "", "", "", "", "", "missing", "", "", ""])
     lines, passed = trend_lines(verdicts, twins)
     md = ["# Validation report", "",
           f"Written by `bash scripts/validate.sh` (`postprocess/validation_report.py`) on "
@@ -643,16 +658,20 @@ def main(argv: list[str] | None = None) -> int:
           "behind each FAIL, and which stage causes it, are in [findings.md](findings.md).", "",
           "Every paper scene runs as written, the converged default (`life.integration = "
           "\"adaptive\"`: blocks split until damage, pits and wear are resolved in time, with "
-          "the implicit wear), which decides each trend. Its literal twin (`runs/<scene>_paper/`"
-          ", from `scripts/paper-scene.sh`: `integration = \"paper\"`, the paper's numerics, "
-          "fixed blocks of ΔN, one evaluation per block on its starting surfaces, explicit wear "
-          "ΔN·Δh and damage over the block, then the pit check) is given beside each trend "
-          "(docs/life.md, \"Two time integrations\"). Results outside the model's range are "
+          "the implicit wear, and the Dang Van criterion over a process length of 5 µm, "
+          "`fatigue.process_length_um`), which decides each trend. Its literal twin "
+          "(`runs/<scene>_paper/`, from `scripts/paper-scene.sh`: `integration = \"paper\"`, the "
+          "paper's numerics, fixed blocks of ΔN, one evaluation per block on its starting "
+          "surfaces, explicit wear ΔN·Δh and damage over the block, then the pit check, and "
+          "the paper's pointwise criterion) is given beside each trend; the runs table gives "
+          "each run's ℓ (docs/life.md, \"Two time integrations\" and \"A process length for "
+          "the criterion\"). Results outside the model's range are "
           "counted per run (docs/life.md, \"The model's range\").", "",
           "## Trends", "", *lines, *slope_sensitivity(a.runs)]
     md += ["", "## Runs", ""]
-    md += _md_table(["scene", "items", "ranks", "wall s", "items' time / ranks, s", "status",
-                     "results written (UTC)", "commit", "micropit_hpc tree"], runs_info)
+    md += _md_table(["scene", "items", "criterion's ℓ, µm", "ranks", "wall s",
+                     "items' time / ranks, s", "status", "results written (UTC)", "commit",
+                     "micropit_hpc tree"], runs_info)
     if restarted:
         md += ["", "\\* A restarted run records the wall time, time and commit of its last leg "
                "only; the blocks before the restart come from its checkpoint, and so do their "

@@ -188,6 +188,22 @@ def _row(text, name):
     return next(line for line in text.splitlines() if line.startswith(f"| {name} |"))
 
 
+def test_the_runs_table_gives_each_runs_process_length():
+    """The report reads the criterion's ℓ from the scene document a run's results carry: the
+    default's 5 µm for a paper scene as written, the pointwise 0 for its literal twin, a
+    length the scene names as named, and "?" for a document that no longer loads."""
+    import json
+    import tomllib
+
+    doc = tomllib.loads((SCENES / "paper_mpr.toml").read_text())
+    assert report._process_length_um(json.dumps(doc)) == "5"
+    doc["life"]["integration"] = "paper"
+    assert report._process_length_um(json.dumps(doc)) == "0"
+    doc["fatigue"] = {"process_length_um": 10.0}
+    assert report._process_length_um(json.dumps(doc)) == "10"
+    assert report._process_length_um(json.dumps({"study": {}})) == "?"
+
+
 def test_missing_twins_are_said_to_be_missing(tmp_path):
     _fake_runs(tmp_path / "runs", "", True)
     rc, text = _report(tmp_path)
@@ -198,7 +214,7 @@ def test_missing_twins_are_said_to_be_missing(tmp_path):
                                "literal numerics: missing)"), line
     assert "Paper's literal numerics (`_paper` twin): run missing" in text
     for name in ("paper_mpr_paper", "paper_gear_z23_paper"):
-        assert _row(text, name).split("|")[6].strip() == "missing"
+        assert _row(text, name).split("|")[7].strip() == "missing"
     assert f"*Missing: {tmp_path / 'runs' / 'paper_mpr_paper'}/summary.csv.*" in text
     assert "trend 1: PASS (the paper's literal numerics: missing) — paper_mpr_beta30:" in text
 
