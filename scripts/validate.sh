@@ -14,7 +14,7 @@
 # beside each trend. PAPER=0 skips the twins (the report then says they are missing);
 # PAPER_ONLY=1 runs only the twins (the report reuses the last default runs). Run times on 2
 # ranks of a 2-core machine (2026-12-02, the default's process length of 5 µm): the gear scenes
-# 29 + 2.5 + 2 + 2 min wall clock, the MPR scenes without wear 2.4 + 1 min, all twins 11 min,
+# 29 + 2.5 + 2 + 2 min wall clock, the MPR scenes without wear 2.4 + 1 min, all twins 10 min,
 # β_x = 60 and 120 µm 19 and 26 min; the MPR scenes with wear (Table 9) at 128² and β_x = 15 µm
 # were not run then (docs/validation/findings.md).
 # The A_p-against-ΔN table comes from
