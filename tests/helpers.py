@@ -64,7 +64,7 @@ def tiny_doc(slide_roll=(0.0, 0.3), k_lub=(0.0,)):
 
 def process_averaged(cycle, *maps):
     """Each material-frame map averaged over ``cycle``'s process area as the criterion sees it
-    (its transfer exp(−k²ℓ²/24), ``fatigue.process_length_um`` = ℓ; the map itself for ℓ = 0):
+    (its discrete Gaussian, ``fatigue.process_length_um`` = ℓ; the map itself for ℓ = 0):
     the surface stresses the cycle assembles are σ_zz(0) = −p̃, σ_xz(0) = −q̃ of these."""
     g = cycle.process_transfer(slice(None))
     if g is None:

@@ -222,7 +222,7 @@ def test_mixed_step_balances_the_load_and_stresses_match_the_surface(tmp_path):
     assert sigma.shape == (6, 4, 32, 32) and np.isfinite(sigma).all()
     p, _ = cyc.material_tractions(f, 1)
     # the criterion sees the stresses of the tractions averaged over the process area (the
-    # default ℓ = 5 µm): at z = 0, σ_zz = −p̃, p̃ the pressure filtered by exp(−k²ℓ²/24)
+    # default ℓ = 5 µm): at z = 0, σ_zz = −p̃, p̃ the pressure filtered by its kernel
     assert cyc.scene.fatigue.process_length == 5.0 * 1e-6       # a file's 5 µm, bit for bit
     (p_avg,) = process_averaged(cyc, p)
     assert np.abs(p_avg - p).max() > 0.01 * cyc.cond.p0          # a real cut of the map

@@ -158,8 +158,8 @@ def test_a_pit_edge_converges_with_the_grid_only_over_a_process_area():
     its surface; Johnson, Contact Mechanics, ch. 2), so a pointwise criterion's result at the rim
     follows the cell. Averaged over ℓ = 10 µm the same maps give surface stresses that move
     by a small fraction of that growth per doubling (measured with the discrete Gaussian of
-    the averaging: 1.18 and 1.19 steps per doubling pointwise from 32² to 128², 0.35 and 0.11
-    averaged, 0.8 and 0.10 from 128² to 256²; the disc's cells, and so the map, differ from
+    the averaging: from 32² to 128² 1.18 and 1.19 steps per doubling pointwise, 0.35 and 0.11
+    averaged; from 128² to 256² 0.80 and 0.10; the disc's cells, and so the map, differ from
     grid to grid)."""
     radius, p_bar = 15e-6, 1.0e9
     step = 2 * MU / math.pi * p_bar * math.log(2)      # the log law's growth per doubling
