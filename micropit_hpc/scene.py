@@ -76,11 +76,6 @@ INTEGRATIONS = ("adaptive", "paper")
 PROCESS_LENGTH_DEFAULT = {"adaptive": 5.0 * UM, "paper": 0.0}
 
 
-def default_process_length(integration: str) -> float:
-    """ℓ [m] for a scene that does not name one (:data:`PROCESS_LENGTH_DEFAULT`)."""
-    return PROCESS_LENGTH_DEFAULT[integration]
-
-
 #: How the wear of a sub-block is integrated: implicit (micropit_hpc.implicit_wear), or one of
 #: the integrations of a single rate (micropit_hpc.wear).
 WEAR_INTEGRATIONS = ("implicit", *RATE_INTEGRATIONS)
@@ -1013,7 +1008,7 @@ def scene_from_dict(doc: Mapping[str, Any], source: str = "<scene>") -> Scene:
     wear: WearSpec = _WEAR.read(doc.get("wear"), source)
     life: LifeSpec = _LIFE.read(doc.get("life"), source)
     if fatigue.process_length is None:
-        fatigue = replace(fatigue, process_length=default_process_length(life.integration))
+        fatigue = replace(fatigue, process_length=PROCESS_LENGTH_DEFAULT[life.integration])
     if life.block > life.cycles:
         raise SceneError(source, f"the block ΔN = {life.block / 1e6:g} M is longer than the "
                                  f"whole life of {life.cycles / 1e6:g} M cycles",

@@ -99,10 +99,7 @@ class ElasticHalfSpaces:
         self.compliance[0, 0] = 0.0
         self._fft = rfft_plan(grid.shape)
         self.slab = slab
-        # the transforms' 1/(nx·ny) folded into the transfer, each value twice
-        # (RealFFT2.convolve); distributed: only the slab's k_y columns (Slab.filtered)
-        self._transfer = (slab.interleaved(self.compliance) if self.distributed
-                          else self._fft.interleaved(self.compliance))
+        self._transfer = self._interleaved(self.compliance)
 
     @property
     def rows(self) -> slice:
@@ -130,24 +127,33 @@ class ElasticHalfSpaces:
         output buffer (or the slab's), overwritten by the next transform; ``p`` None takes the
         field already written into :attr:`input_buffer` (serial only). Collective with a slab.
         """
-        if not self.distributed:
-            return self._fft.convolve(self._transfer, p)
-        return self.slab.filtered(p, self._transfer)
+        return self._apply(self._transfer, p)
 
     def stiffness_response(self, f: np.ndarray | None = None) -> np.ndarray:
         """The inverse response applied to ``f``: irfft2((E'κ/4) · rfft2(f)), the pressure whose
         displacement is f (less its mean), as a view of the transform's output buffer like
         :meth:`response` (``f`` None: the field in :attr:`input_buffer`). The preconditioner of
         the contact's CG (:func:`_polonsky_keer`). Collective with a slab."""
-        if not self.distributed:
-            return self._fft.convolve(self._stiffness_transfer, f)
-        return self.slab.filtered(f, self._stiffness_transfer)
+        return self._apply(self._stiffness_transfer, f)
 
     @cached_property
     def _stiffness_transfer(self) -> np.ndarray:
         """:attr:`stiffness` in the layout of :meth:`stiffness_response`'s transform."""
-        return (self.slab.interleaved(self.stiffness) if self.distributed
-                else self._fft.interleaved(self.stiffness))
+        return self._interleaved(self.stiffness)
+
+    def _interleaved(self, values: np.ndarray) -> np.ndarray:
+        """A transfer function on the half spectrum in the layout :meth:`_apply` multiplies
+        by: the transforms' 1/(nx·ny) folded in, each value twice (RealFFT2.convolve);
+        distributed, only the slab's k_y columns (Slab.filtered)."""
+        return (self.slab.interleaved(values) if self.distributed
+                else self._fft.interleaved(values))
+
+    def _apply(self, transfer: np.ndarray, f: np.ndarray | None) -> np.ndarray:
+        """irfft2(transfer · rfft2(f)) as a view of the transform's output buffer (``f`` None:
+        the field in :attr:`input_buffer`). Collective with a slab."""
+        if not self.distributed:
+            return self._fft.convolve(transfer, f)
+        return self.slab.filtered(f, transfer)
 
     @cached_property
     def self_compliance(self) -> float:
