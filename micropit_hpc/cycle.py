@@ -9,7 +9,9 @@ Fourier shift of the smooth heights). This module builds the window and surfaces
 position and solves one time step: contact (:mod:`micropit_hpc.lubrication`) and stresses
 (:mod:`micropit_hpc.mechanics`) in each body's material frame, where the pressure and
 traction arrive by linear interpolation (no ringing) and the macro Hertz field is the one at
-the window centre, so that σ_zz(0) = −p and σ_xz(0) = −q hold exactly (docs/contact.md).
+the window centre, so that σ_zz(0) = −p̃ and σ_xz(0) = −q̃ hold exactly, p̃ and q̃ the maps
+averaged over the process length (:meth:`PositionCycle.traction_spectra`; p and q at ℓ = 0;
+docs/contact.md).
 
 :meth:`PositionCycle.evaluate` runs the whole cycle on the surfaces it is given: the contact at
 every step, the stresses and Dang Van per body, the damage per cycle (S–N line and cycle
@@ -585,9 +587,10 @@ class PositionCycle:
         step of ``fields`` (docs/contact.md, "The stress history"): the micro field (Fourier
         kernels, App. A.1) of the pressure and traction moved into the material frame
         (:meth:`material_tractions`), less their means, plus the macro field at the window
-        centre (:meth:`macro_stress`). At z = 0: σ_zz = −p and σ_xz = −q of the
-        material-frame maps, to round-off. The whole depth at once; :meth:`evaluate` streams
-        the layers instead (:meth:`stress_history`), with the same numbers."""
+        centre (:meth:`macro_stress`). At z = 0: σ_zz = −p̃ and σ_xz = −q̃ of the
+        material-frame maps averaged over the process length (p, q at ℓ = 0), to round-off.
+        The whole depth at once; :meth:`evaluate` streams the layers instead
+        (:meth:`stress_history`), with the same numbers."""
         sigma = self._micro_field(body).stresses(*self.traction_spectra(fields, body))
         sigma += self.macro_stress(fields, body)
         return sigma

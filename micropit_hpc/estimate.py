@@ -20,7 +20,7 @@ comes to the measured peaks, and the command that measures them, are in docs/per
 The time is an order of magnitude only (the contact solver's iterations and the adaptive splits
 of a block vary with Λ and wear): about :data:`SECONDS_PER_POINT_LAYER_STEP` s per grid point,
 layer + 4, and time step, fitted to two whole runs at the converged default (adaptive blocks,
-implicit wear) on 2 ranks (docs/jobs.md, "The estimate")."""
+implicit wear, the process length of 5 µm) on 2 ranks (docs/jobs.md, "The estimate")."""
 
 from __future__ import annotations
 
@@ -38,7 +38,7 @@ TRANSIENT_B_PER_POINT = 1400.0
 STEP_B_PER_POINT = 80.0
 STRESS_B_PER_POINT_LAYER_STEP = 60.0
 ITEM_B_PER_POINT = 1100.0
-SECONDS_PER_POINT_LAYER_STEP = 1.2e-5
+SECONDS_PER_POINT_LAYER_STEP = 4.5e-6
 GIB = 2.0 ** 30
 
 

@@ -754,7 +754,9 @@ class LifeSpec:
         "limits above); `paper`: the paper's scheme, one evaluation per block of ΔN on the "
         "block's starting surfaces, damage and wear applied over the whole block, then the "
         "pit check. In `paper` the wear–fatigue competition depends on block_M "
-        "(docs/life.md, \"Two time integrations\").", default="adaptive",
+        "(docs/life.md, \"Two time integrations\"). It also sets the default of "
+        "`fatigue.process_length_um`: 5 µm in `adaptive`, 0 (pointwise) in `paper`.",
+        default="adaptive",
         choices=INTEGRATIONS)
 
 

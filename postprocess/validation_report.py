@@ -96,9 +96,12 @@ def _write_csv(path: Path, rows: list[dict]) -> None:
         w.writerows(rows)
 
 
-def _process_length_um(scene_json: str) -> str:
+def _process_length_um(scene_json: str, recorded: float | None = None) -> str:
     """The Dang Van criterion's process length ℓ [µm] a run used (``fatigue.process_length_um``
-    or its integration's default, docs/life.md), from the scene document its results carry."""
+    or its integration's default, docs/life.md): the ``process_length_m`` its results recorded,
+    else (results older than that attribute) read from the scene document they carry."""
+    if recorded is not None:
+        return f"{float(recorded) * 1e6:.3g}"
     try:
         scene = scene_from_dict(json.loads(scene_json), "results.h5")
     except (ValueError, MicropitError):      # a run of older code whose scene no longer loads
@@ -110,7 +113,7 @@ def _run_info(run: Path) -> dict:
     res = load_results(run)
     a = res.attrs
     return {"wall_s": float(a.get("wall_s", math.nan)), "ranks": int(a.get("ranks", 0)),
-            "ell_um": _process_length_um(str(a.get("scene", "{}"))),
+            "ell_um": _process_length_um(str(a.get("scene", "{}")), a.get("process_length_m")),
             "status": str(a.get("status", "?")), "items": res.items.rows,
             "restarted": int(a.get("restarted_from_block", 0)),
             "created": str(a.get("created_utc", "?"))[:16].replace("T", " "),

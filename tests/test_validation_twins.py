@@ -189,9 +189,10 @@ def _row(text, name):
 
 
 def test_the_runs_table_gives_each_runs_process_length():
-    """The report reads the criterion's ℓ from the scene document a run's results carry: the
-    default's 5 µm for a paper scene as written, the pointwise 0 for its literal twin, a
-    length the scene names as named, and "?" for a document that no longer loads."""
+    """The report reads the criterion's ℓ that a run's results recorded, or (results older than
+    that record) from the scene document they carry: the default's 5 µm for a paper scene as
+    written, the pointwise 0 for its literal twin, a length the scene names as named, and "?"
+    for a document that no longer loads."""
     import json
     import tomllib
 
@@ -202,6 +203,9 @@ def test_the_runs_table_gives_each_runs_process_length():
     doc["fatigue"] = {"process_length_um": 10.0}
     assert report._process_length_um(json.dumps(doc)) == "10"
     assert report._process_length_um(json.dumps({"study": {}})) == "?"
+    # the length the results recorded wins over the document (a default may change later)
+    assert report._process_length_um(json.dumps(doc), 0.0) == "0"
+    assert report._process_length_um(json.dumps({"study": {}}), 5e-6) == "5"
 
 
 def test_missing_twins_are_said_to_be_missing(tmp_path):

@@ -82,6 +82,9 @@ def write_results(path: str | Path, study, records: Mapping[int, list],
             if study.scene.lubricant.derived:
                 f.attrs["lubricant_derived"] = study.scene.lubricant.derived
             f.attrs["scene"] = scene_json(study.scene.document)
+            # the length the run used, the integration's default resolved (a later default
+            # would read the same document differently)
+            f.attrs["process_length_m"] = float(study.scene.fatigue.process_length)
             f.attrs["scene_file"] = str(study.scene.source)
             f.attrs["created_utc"] = _dt.datetime.now(_dt.UTC).isoformat()
             for k, v in meta.items():

@@ -61,10 +61,10 @@ def write_snapshot(path: str | Path, cycle, fields, stresses: dict[int, np.ndarr
             p_mat, q_mat = cycle.material_tractions(fields, i)
             put(f"pressure_material_body{i}", p_mat, "Pa",
                 f"contact pressure in body {i}'s material frame (the stresses' frame: "
-                f"stress_body{i}[zz, 0] = -this)")
+                f"stress_body{i}[zz, 0] = -this averaged over fatigue.process_length_um)")
             put(f"traction_material_body{i}", q_mat, "Pa",
                 f"friction traction on body {i} along +x in its material frame "
-                f"(stress_body{i}[xz, 0] = -this)")
+                f"(stress_body{i}[xz, 0] = -this averaged over fatigue.process_length_um)")
             put(f"height_body{i}", cycle.surfaces[i - 1].heights, "m",
                 f"topography of body {i}, outward positive")
         for i, s in stresses.items():
