@@ -8,7 +8,8 @@ The surfaces are one realisation made on the ``--ref`` grid (default 256²) and 
 roughness sample. Each run uses the scene's settings otherwise (the converged default:
 adaptive blocks, implicit wear); ``--grids`` runs at the scene's ΔN, ``--blocks-M`` at the
 scene's grid (those first). One rank, one process. Rows go to ``--csv`` as they finish; a
-re-run skips the runs whose rows there reach ``--cycles-M`` (same case, k_lub, n and ΔN); one
+re-run skips the runs whose rows there reach ``--cycles-M`` (same process length ℓ, case,
+k_lub, n and ΔN; a CSV without the ℓ column, from before 2026-12-02, is refused); one
 that stops short starts again from its first block, or with ``--state`` from its last.
 ``--relief-share`` and ``--anderson-memory`` change the implicit wear's solver (docs/life.md,
 "Implicit wear"; give such runs their own ``--csv`` and ``--state``: neither the skip nor the
@@ -51,7 +52,8 @@ from micropit_hpc.study import ItemRun
 from micropit_hpc.surfaces.bodies import body_surface
 
 ROOT = Path(__file__).resolve().parents[1]
-COLUMNS = ("scene", "position", "k_lub_s", "n", "block_M", "cycles_M", "wear_um",
+COLUMNS = ("scene", "process_length_um", "position", "k_lub_s", "n", "block_M", "cycles_M",
+           "wear_um",
            "Rq_um_1", "Rq_um_2", "dq_1", "dq_2", "Ap_1", "Ap_2", "phi", "sub_blocks",
            "wear_cycles", "wall_s")
 
@@ -96,9 +98,10 @@ def code_tree() -> str:
     return tree
 
 
-def state_path(directory: Path, scene: str, position, k_lub, n, block_M, ref, fatigue) -> Path:
-    """The state file of one run in ``directory``."""
-    return directory / (f"{scene}_p{position}_k{k_lub:g}_n{n}_dN{block_M:g}_ref{ref}"
+def state_path(directory: Path, scene: str, ell, position, k_lub, n, block_M, ref,
+               fatigue) -> Path:
+    """The state file of one run in ``directory`` (``ell``: the process length [µm])."""
+    return directory / (f"{scene}_l{ell:g}_p{position}_k{k_lub:g}_n{n}_dN{block_M:g}_ref{ref}"
                         f"{'' if fatigue else '_nofatigue'}.npz")
 
 
@@ -141,7 +144,7 @@ def _run(base, position, k_lub, n, block_M, cycles_M, reference, out, fatigue=Tr
         subs += rec.sub_blocks
         wear_cycles += rec.wear_cycles
         wall = before + time.perf_counter() - t0
-        row = (scene_name(base), position, k_lub, n, block_M,
+        row = (scene_name(base), base.fatigue.process_length * 1e6, position, k_lub, n, block_M,
                run.state.cycles / 1e6, sum(rec.wear_mean) * 1e6, rec.Rq[0] * 1e6,
                rec.Rq[1] * 1e6, rec.slope[0], rec.slope[1], rec.Ap[0], rec.Ap[1], rec.phi,
                subs, wear_cycles, wall)
@@ -151,13 +154,22 @@ def _run(base, position, k_lub, n, block_M, cycles_M, reference, out, fatigue=Tr
 
 
 def _done(path: Path) -> dict:
-    """The cycles [M] each run of the CSV ``path`` has rows up to, by (position, k_lub, n, ΔN)."""
+    """The cycles [M] each run of the CSV ``path`` has rows up to, by (process length [µm],
+    position, k_lub, n, ΔN). A CSV of other columns (one written before the process length
+    was a column: those rows are pointwise, and new rows would not fit under its header) is
+    refused, naming the file."""
     if not path or not path.exists():
         return {}
     done = {}
     with open(path) as f:
-        for r in csv.DictReader(f):
-            key = (r["position"], float(r["k_lub_s"]), int(r["n"]), float(r["block_M"]))
+        rows = csv.DictReader(f)
+        if tuple(rows.fieldnames or ()) != COLUMNS:
+            sys.exit(f"bench_wear_convergence: {path} has the columns {rows.fieldnames}, not "
+                     f"{list(COLUMNS)} (written by an earlier version: without "
+                     "process_length_um its rows are pointwise); give a new --csv")
+        for r in rows:
+            key = (float(r["process_length_um"]), r["position"], float(r["k_lub_s"]),
+                   int(r["n"]), float(r["block_M"]))
             done[key] = max(done.get(key, 0.0), float(r["cycles_M"]))
     return done
 
@@ -212,10 +224,11 @@ def main(argv=None) -> int:
     scene = scene_name(base)
     for k in a.k_lub:
         for n, block in runs:
-            if done.get((str(a.position), k, n, block), 0.0) >= a.cycles_M * (1 - 1e-9):
+            ell = base.fatigue.process_length * 1e6
+            if done.get((ell, str(a.position), k, n, block), 0.0) >= a.cycles_M * (1 - 1e-9):
                 continue
             state = None if states is None else state_path(
-                states, scene, a.position, k, n, block, a.ref, not a.no_fatigue)
+                states, scene, ell, a.position, k, n, block, a.ref, not a.no_fatigue)
             _run(base, a.position, k, n, block, a.cycles_M, reference, out,
                  fatigue=not a.no_fatigue, state=state, tree=tree)
     return 0
