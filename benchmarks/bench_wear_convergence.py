@@ -222,9 +222,9 @@ def main(argv=None) -> int:
         states.mkdir(parents=True, exist_ok=True)
     tree = code_tree() if states is not None else ""
     scene = scene_name(base)
+    ell = base.fatigue.process_length * 1e6     # the run key's ℓ [µm], as the rows'
     for k in a.k_lub:
         for n, block in runs:
-            ell = base.fatigue.process_length * 1e6
             if done.get((ell, str(a.position), k, n, block), 0.0) >= a.cycles_M * (1 - 1e-9):
                 continue
             state = None if states is None else state_path(
