@@ -29,8 +29,12 @@ iteration: it over-damps the spot-scale and plastic modes; the spectral one does
 the worn counterface, whose relief the rate map of one body does not see (docs/life.md,
 "Implicit wear"). Worn depths never go negative (the iterate is clipped at 0). A ``guess``
 (the caller's: the last step's worn depth, scaled to this step) replaces the explicit first
-iterate n Δh(0). The iteration stops when the residual
-max |n Δh(w) − w| is below ``tol`` (a length; the life loop states it relative to R_q). The
+iterate n Δh(0). A uniform removal changes no rate of a contact (it changes nothing the
+contact sees), so for such rates (``invariant``) the mean part of the fixed point is solved
+exactly: each iterate's worn depth is raised by the mean of its body's residual (no lower than
+its shallowest point allows), and the iteration stops when the residual left,
+max |n Δh(w) − w − ⟨n Δh(w) − w⟩|, is below ``tol`` (a length; the life loop states it
+relative to R_q; without ``invariant`` the plain max |n Δh(w) − w|). The
 rate must be a continuous function of the worn depth for the fixed point to exist: with the
 tenfold step of the wear coefficient at the edge of solid contact a point at the edge has no
 consistent depth and the residual stalls (``wear.solid_ramp_film``).
@@ -45,6 +49,7 @@ needs, identically on every rank.
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -147,7 +152,8 @@ def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tupl
                    tol: float, max_iter: int = 60, memory: int | None = None,
                    errors: tuple[type[Exception], ...] = (),
                    relief: SpectralRelief | None = None,
-                   guess: tuple[np.ndarray, ...] | None = None) -> ImplicitWear:
+                   guess: tuple[np.ndarray, ...] | None = None,
+                   invariant: bool = False) -> ImplicitWear:
     """Solve w = n Δh(w) for both bodies (module docstring).
 
     ``rates(w)``: the wear rates per cycle (a :class:`~micropit_hpc.wear.WearRate` per body) of
@@ -155,13 +161,15 @@ def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tupl
     ``start``: the rates on the unworn surfaces (w = 0), already known from the sub-block's
     full load cycle; ``n``: the sub-block's cycles; ``tol``: the residual max |n Δh(w) − w|
     [m] to reach; ``max_iter``: the most contact-only cycles to spend; ``memory``: the past
-    iterates Anderson combines (None: :data:`MEMORY`); ``errors``: exceptions
-    of ``rates`` that end the solve unconverged with the best iterate so far (an extrapolated
-    iterate can be a surface whose contact does not converge; the caller shortens the step);
+    iterates Anderson combines (None: :data:`MEMORY`); ``errors``: exceptions of ``rates``
+    that end the solve unconverged with the best iterate so far (an extrapolated iterate can
+    be a surface whose contact does not converge; the caller shortens the step);
     ``relief``: the preconditioner (None: plain Anderson); ``guess``: the first iterate in
     place of the explicit n Δh(0) (the iteration goes on from it; measured: from the last
-    step's depth it saves about half the iterations, though its residual can exceed |n Δh(0)|).
-    Without wear (every rate zero) no contact is solved."""
+    step's depth it saves about half the iterations, though its residual can exceed |n Δh(0)|);
+    ``invariant``: the rates are unchanged by a uniform wear of a body (a contact's are: the
+    mean part is then solved exactly and ``tol`` bounds the residual less its mean, module
+    docstring; False: the plain residual). Without wear (every rate zero) no contact is solved."""
     memory = MEMORY if memory is None else int(memory)
     shapes = [r.rate.shape for r in start]
     sizes = [int(np.prod(s)) for s in shapes]
@@ -176,6 +184,19 @@ def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tupl
             k += size
         return tuple(out)
 
+    bounds = [int(k) for k in np.cumsum([0, *sizes])]
+
+    def uniform(x: np.ndarray, f: np.ndarray) -> tuple[float, np.ndarray]:
+        """The residual left once each body's worn depth is raised by the mean of its residual
+        (no lower than its smallest depth allows: wear never adds material), and that shift:
+        a uniform removal changes no rate, so it solves the mean part of w = n Δh(w) exactly."""
+        shift = np.zeros_like(f)
+        if not invariant:
+            return float(np.abs(f).max()), shift
+        for a, b in itertools.pairwise(bounds):
+            shift[a:b] = max(float(f[a:b].mean()), -float(x[a:b].min()))
+        return float(np.abs(f - shift).max()), shift
+
     g = n * pack([r.rate for r in start])                  # n Δh(0)
     if not g.any():
         zero = tuple(np.zeros(s) for s in shapes)
@@ -184,9 +205,9 @@ def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tupl
     f = g - x
     last = tuple(start)
     xs, fs = [], []          # iterates advanced by the preconditioned residual, and the latter
-    it, res = 0, float(np.abs(f).max())
+    it, (res, shift) = 0, uniform(x, f)
     history = [res]
-    best = (res, x, last)
+    best = (res, x + shift, last)
     inverse = relief.solve(start, n) if relief is not None else None
     if guess is not None and res > tol and max_iter > 0:
         x_g = np.maximum(pack(guess), 0.0)
@@ -198,10 +219,10 @@ def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tupl
         else:
             x, last = x_g, last_g
             f = n * pack([r.rate for r in last]) - x
-            res = float(np.abs(f).max())
+            res, shift = uniform(x, f)
             history.append(res)
             if res < best[0]:
-                best = (res, x, last)
+                best = (res, x + shift, last)
     while res > tol and it < max_iter:
         if inverse is not None:
             f = pack(inverse(unpack(f)))
@@ -222,10 +243,10 @@ def backward_euler(rates: Callable[[tuple[np.ndarray, ...]], tuple], start: tupl
             history.append(math.inf)
             break
         f = n * pack([r.rate for r in last]) - x
-        res = float(np.abs(f).max())
+        res, shift = uniform(x, f)
         history.append(res)
         if res < best[0]:
-            best = (res, x, last)
+            best = (res, x + shift, last)
     res, x, last = best                                   # the best iterate, if not converged
     return ImplicitWear(n, unpack(x), tuple(start), last, it, res,
                         res <= tol and history[-1] <= tol, tuple(history))

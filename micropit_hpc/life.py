@@ -426,7 +426,8 @@ def implicit_sub_block(cycle: PositionCycle, state: LifeState, result: CycleResu
         with event("implicit_wear"):
             guess = None if start is None else tuple((m / start[0]) * w for w in start[1])
             sol = backward_euler(rates, now, m, tol, max_iter=life.wear_max_iter,
-                                 errors=(ContactError,), relief=relief, guess=guess)
+                                 errors=(ContactError,), relief=relief, guess=guess,
+                                 invariant=True)
         spent += sol.iterations
         thrown = (thrown[0] + 1, thrown[1] + sol.iterations)    # until it is accepted below
         err = max(sol.error(intact))

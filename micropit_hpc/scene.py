@@ -719,8 +719,9 @@ class LifeSpec:
         default="implicit", choices=WEAR_INTEGRATIONS)
     wear_tol: float = setting(
         "wear_tol", "float", "`implicit` wear: the fixed point w = n·Δh(w) is "
-        "solved until max |n·Δh(w) − w| is below this fraction of the smallest initial R_q "
-        "of the rough bodies (docs/life.md, \"Implicit wear\").", default=0.005, lo=0,
+        "solved until max |r − ⟨r⟩|, r = n·Δh(w) − w of each body, is below this fraction of "
+        "the smallest initial R_q of the rough bodies; the mean ⟨r⟩ is solved exactly (a "
+        "uniform wear changes no rate; docs/life.md, \"Implicit wear\").", default=0.005, lo=0,
         hi=1, lo_open=True)
     wear_accuracy: float = setting(
         "wear_accuracy", "float", "`implicit` wear: a sub-block is cut while "

@@ -156,7 +156,8 @@ class BlockRecord:
 
     The implicit wear (``life.wear_integration = "implicit"``): ``wear_cycles``, the
     contact-only load cycles its solves took in the block; ``wear_residual``, the largest
-    residual max |n Δh(w) − w| of an accepted step over R_q (above ``life.wear_tol`` where a
+    residual max |r − ⟨r⟩|, r = n Δh(w) − w, of an accepted step over R_q (its mean is solved
+    exactly, :func:`~micropit_hpc.implicit_wear.backward_euler`; above ``life.wear_tol`` where a
     step of the smallest length did not converge); ``wear_fallback``, the share of the block's
     cycles whose wear the relaxed update integrated because a sub-block spent its budget of
     contact-only cycles (:data:`micropit_hpc.life.WEAR_BUDGET`).

@@ -68,7 +68,64 @@ def test_backward_euler_error_estimate_is_the_local_error_of_a_slow_decay():
         true = np.abs(sol.depth[0] - exact)
         # the estimate is the shape part (less the mean over the columns): two points
         est = sol.error([np.ones(2, bool), np.ones(2, bool)])[0]
-        assert est == pytest.approx(0.5 * abs(true[0] - true[1]), rel=0.05)
+        assert est == pytest.approx(0.5 * abs(true[0] - true[1]), rel=0.05, abs=0)
+
+
+def test_the_mean_wear_of_a_loosely_solved_step_is_exact():
+    """Rates that a uniform wear leaves unchanged, Δh(w) = a − J (w − ⟨w⟩) per body (as the
+    contact's: a uniform removal changes nothing it sees): a solve stopped at a third of the
+    explicit step's shape residual still removes exactly n ⟨Δh(w)⟩ per body (the mean part is
+    solved, not iterated), and the shape residual it reports meets the tolerance."""
+    rng = np.random.default_rng(7)
+    m = 32
+    B = rng.normal(size=(m, m))
+    J = B @ B.T / m + 0.2 * np.eye(m)
+    P = np.eye(m) - 1.0 / m                           # w − ⟨w⟩
+    a = [rng.uniform(1e-12, 3e-12, m), rng.uniform(0.5e-12, 1e-12, m)]
+    n = 2.0                                           # n ‖J‖ ≈ 10: stiff
+
+    def rates(w):
+        return tuple(WearRate(solid=ak - J @ (P @ wk), fluid=np.zeros(m), relax=np.zeros(m))
+                     for ak, wk in zip(a, w, strict=True))
+    start = rates((np.zeros(m), np.zeros(m)))
+    tol = min(np.abs(n * (ak - ak.mean())).max() for ak in a) / 3
+    sol = backward_euler(rates, start, n, tol, invariant=True)
+    assert sol.converged and sol.residual <= tol and sol.iterations >= 2
+    for d, r in zip(sol.depth, sol.rate_end, strict=True):
+        assert d.mean() == pytest.approx(n * r.rate.mean(), rel=1e-12, abs=0)
+        assert np.abs(n * r.rate - d).max() <= tol * (1 + 1e-12)
+    # the plain residual, mean and all, leaves the mean as inexact as the tolerance lets it
+    plain = backward_euler(rates, start, n, tol)
+    assert plain.converged
+    assert plain.depth[0].mean() != pytest.approx(n * plain.rate_end[0].rate.mean(), rel=1e-6,
+                                                  abs=0)
+
+
+@pytest.mark.parametrize("model", ["dry", "mixed"])
+def test_a_uniform_wear_changes_no_rate(model):
+    """The premise of the exact mean: the contact-only cycle's wear rates on surfaces worn by
+    w and by w + c (a constant per body) agree to rounding, dry and in mixed lubrication."""
+    from micropit_hpc.life import _worn, contact_surfaces
+
+    doc = _wave_doc(64, 2e-12, "implicit")
+    if model == "mixed":
+        del doc["lubrication"], doc["film"]              # the scene's default film model
+    scene = scene_from_dict(doc, "wave.toml")
+    study = contact_study(scene)
+    cyc = PositionCycle(study, 1, k_lub=2e-12)
+    g = cyc.grid
+    x = (np.arange(g.nx) + 0.5) * g.dx
+    h1 = 0.4e-6 * np.cos(2 * math.pi * x / PERIOD)[:, None] * np.ones((1, g.ny))
+    cyc = PositionCycle(study, 1, k_lub=2e-12, surfaces=(
+        Topography(h1, g.dx, g.dy, "cosine"), Topography(np.zeros(g.shape), g.dx, g.dy, "flat")))
+    state = initial_state(cyc)
+    surf, pits = contact_surfaces(state, g, scene.life.pit_contact)
+    w = (np.random.default_rng(1).uniform(0, 2e-8, g.shape), np.zeros(g.shape))
+    before = cyc.wear_rates(_worn(surf, state, w), pits, {})
+    after = cyc.wear_rates(_worn(surf, state, (w[0] + 3e-7, w[1] + 1e-7)), pits, {})
+    for r0, r1 in zip(before, after, strict=True):
+        assert r0.rate.max() > 0
+        assert np.abs(r1.rate - r0.rate).max() <= 1e-12 * np.abs(r0.rate).max()
 
 
 def test_no_wear_solves_no_contact():
