@@ -8,6 +8,7 @@
 #   NPS=2 bash benchmarks/bench_gear_study.sh      # the 10-minute target alone
 #   RPI=2 NPS=2 POSITIONS="3" bash ...             # one position, 2 ranks per item (slabs)
 #   BALANCE=static NPS=2 bash ...                  # items round robin (default: dynamic)
+#   LIFE="max_wear_fraction = 0.4" NPS=2 bash ...  # lines appended to the scene's [life]
 #
 # Prints one line per run: ranks, ranks per item, items, wall [s], efficiency against the
 # first run, and the share of the blocks stage spent in the contact, stress (FFT) and Dang
@@ -27,6 +28,8 @@ scene="$out/paper_gear_z23_33.toml"
 sed -e 's/^patches = 2 .*/patches = 1/' -e "s/^cycles_M = .*/cycles_M = $cycles/" \
     scenes/paper_gear_z23.toml > "$scene"
 grep -q '^patches = 1' "$scene" || { echo "bench_gear_study: could not set patches = 1" >&2; exit 2; }
+# [life] is the scene's last table: LIFE's lines (newline-separated settings) go into it
+[ -z "${LIFE:-}" ] || printf '%b\n' "$LIFE" >> "$scene"
 posargs=()
 for p in ${POSITIONS:-}; do posargs+=(--position "$p"); done
 first=""
