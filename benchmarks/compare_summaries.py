@@ -10,15 +10,19 @@ below that a relative figure says nothing. Exit status 0 (a report, not a test).
 from __future__ import annotations
 
 import argparse
-import csv
 
 import numpy as np
 
+from micropit_hpc.io.results import ResultsError, load_summary
+
 
 def read(path: str) -> dict[tuple, dict]:
-    with open(path, newline="") as f:
-        return {(r["position"], float(r["k_lub_s"]), r["body"], float(r["cycles"])): r
-                for r in csv.DictReader(f)}
+    """The rows of summary.csv ``path`` (:func:`~micropit_hpc.io.results.load_summary`, which
+    names the file when it is not one) by (position, k_lub, body, cycles)."""
+    t = load_summary(path)
+    cols = ("position", "k_lub_s", "body", "cycles", "Ap_pct", "wear_um")
+    return {(int(t["position"][i]), float(t["k_lub_s"][i]), int(t["body"][i]),
+             float(t["cycles"][i])): {c: t[c][i] for c in cols} for i in range(t.rows)}
 
 
 def main(argv: list[str] | None = None) -> None:
@@ -29,7 +33,10 @@ def main(argv: list[str] | None = None) -> None:
     ap.add_argument("--ap-pt", type=float, default=3.0)
     ap.add_argument("--min-wear-um", type=float, default=0.01)
     a = ap.parse_args(argv)
-    ref, oth = read(a.reference), read(a.other)
+    try:
+        ref, oth = read(a.reference), read(a.other)
+    except ResultsError as e:
+        raise SystemExit(f"compare_summaries: {e}") from None
     keys = [k for k in ref if k in oth]
     if not keys:
         raise SystemExit(f"compare_summaries: no (position, k_lub, body, cycles) row of "
