@@ -10,8 +10,10 @@ own time.
 ``--scan`` instead of the profile: the mixed solves' load-fraction scans (docs/performance.md
 §3, "Where a rough item's time goes"): how many steps end at φ = 1, how many of their scans
 have a film balance f(φ) that is not falling through the trials, the smallest f(φ_k)/f(1) over
-their trials, and the dry solves' count, time and iterations: at no load (φ = 0), the loose
-trials, and the solves at the scene's tolerance.
+their trials (of the scans that solved every trial), how many trials the scans started at
+φ = 1 proved above the film and did not solve (``mixed.SCAN_CERTIFY``), and the dry solves'
+count, time and iterations: at no load (φ = 0), the loose trials, and the solves at the
+scene's tolerance.
 
 ``--wear-steps`` instead of the profile: the implicit wear's contact-only load cycles and how
 many of them went to solves thrown away (cut after their solve by the accuracy or the shape
@@ -139,8 +141,10 @@ def scan_statistics(run, cycles: float) -> int:
         count["step"] += 1
         if sol.phi == 1.0 and f:
             count["phi = 1"] += 1
-            count["not falling"] += any(a <= b for a, b in pairwise(f))
-            ratios.append(min(f) / f[-1])
+            count["proved"] += len(mixed.PHI_SCAN) - len(f)
+            if len(f) == len(mixed.PHI_SCAN):       # every trial solved, in order
+                count["not falling"] += any(a <= b for a, b in pairwise(f))
+                ratios.append(min(f) / f[-1])
         return sol
 
     base_tol = run.cycle.scene.lubrication.tol
@@ -149,9 +153,11 @@ def scan_statistics(run, cycles: float) -> int:
         run.run_block(cycles)
     finally:
         mixed.MixedLubrication.solve, mixed.solve_dry_contact = orig_solve, orig_dry
-    print(f"steps {count['step']}, at phi = 1 {count['phi = 1']}, of these with f(phi) not "
-          f"falling through the trials {count['not falling']}; smallest f(phi_k)/f(1) "
-          f"{min(ratios) if ratios else float('nan'):.4f}")
+    print(f"steps {count['step']}, at phi = 1 {count['phi = 1']}, of these with every trial "
+          f"solved {len(ratios)}, with f(phi) not falling through the trials "
+          f"{count['not falling']}; smallest f(phi_k)/f(1) "
+          f"{min(ratios) if ratios else float('nan'):.4f}; trials proved above the film and "
+          f"not solved {count['proved']} (mixed.SCAN_CERTIFY)")
     for kind in ("no load", "loose trial", "scene's tolerance"):
         n = max(count[kind], 1)
         print(f"dry solves at the {kind}: {count[kind]}, {1e3 * wall[kind] / n:.3f} ms and "

@@ -228,3 +228,91 @@ def test_a_loose_trial_that_fails_is_solved_at_the_scenes_tolerance(monkeypatch)
     assert loose_solves == tight_solves         # the failed loose solves raised: not counted
     assert loose.phi == tight.phi
     assert np.array_equal(loose.pressure, tight.pressure)
+
+
+@pytest.mark.parametrize("p_lim", [np.inf, 2.0e9])
+def test_the_contact_is_order_preserving_as_the_certified_scan_assumes(p_lim):
+    """The two properties :meth:`~micropit_hpc.lubrication.mixed.MixedLubrication.
+    _certified_scan` builds on, on random gaps, elastic and with yielded points: at a fixed
+    load the approach of g0 + e lies within [min e, max e] of g0's, and the signed mean gap
+    ⟨g0⟩ − δ does not fall when the load does (measured: each held with a margin of at least
+    a third of the range of e, and 0.24 µm)."""
+    g, (z1, z2) = random_pair(64)
+    hs = ElasticHalfSpaces(g, E_PRIME)
+    _, (e1, e2) = random_pair(64, seed=11)
+    for z, e, P in ((z1, 0.5 * e1, 0.8e9), (z2, 0.3 * e2, 1.2e9), (z1 + z2, e1 - e2, 1.0e9)):
+        a = solve_dry_contact(z, hs, P, p_lim, tol=1e-10, max_iter=5000)
+        b = solve_dry_contact(z + e, hs, P, p_lim, tol=1e-10, max_iter=5000)
+        c = solve_dry_contact(z, hs, 0.5 * P, p_lim, tol=1e-10, max_iter=5000)
+        shift = b.approach - a.approach
+        assert e.min() < shift < e.max()
+        assert c.gap.mean() > a.gap.mean()
+        # the signed mean gap is ⟨g0⟩ − δ (the displacement has no mean)
+        assert a.gap.mean() == pytest.approx(z.mean() - a.approach, abs=1e-12 * z.std())
+        if np.isfinite(p_lim):
+            assert (a.pressure >= p_lim).any()      # the capped case has yielded points
+
+
+def _certified_pair(h_mean, scales, certify, monkeypatch):
+    """The 128² pair's mixed solutions of one step evaluated once per scale of its surfaces in
+    ``scales``, one warm dict throughout, with the certified scan on or off: (the last
+    solution, its dry solves as (load, tolerance), its scan's film balances)."""
+    g, (z1, z2) = random_pair(128)
+    fft = rfft_plan(g.shape)
+    solves = []
+
+    def counted(*args, **kwargs):
+        sol = solve_dry_contact(*args, **kwargs)
+        solves.append((args[2], kwargs["tol"]))
+        return sol
+
+    monkeypatch.setattr(mixed, "SCAN_CERTIFY", certify)
+    monkeypatch.setattr(mixed, "solve_dry_contact", counted)
+    model, warm = mixed_model(g, h_mean=h_mean), {}
+    for scale in scales:
+        r = (fft.forward(-scale * z1), fft.forward(-scale * z2))
+        del solves[:]
+        sol = model.solve(r, r, 1.0e9, 5e-5, warm=warm)
+    return sol, list(solves), model.last_scan
+
+
+@pytest.mark.parametrize("scale, proved", [(1.0, False), (3.0, True), (10.0, True)])
+def test_the_certified_scan_gives_the_plain_scans_answer_with_fewer_solves(scale, proved,
+                                                                          monkeypatch):
+    """Where the last evaluation found no root (φ = 1), the scan starts at φ = 1 and skips
+    the trials it proves above the film: the same answer bit for bit (the solve at φ = 1
+    starts from the same warm pressure), with fewer dry solves where a trial is proved (the
+    pair three and ten times as rough; as rough as it is, f(1) = 0.04 µm is too close to the
+    film for any proof, and every trial is solved); the trials it solves have the plain
+    scan's signs."""
+    plain, plain_solves, plain_scan = _certified_pair(1e-12, (scale, scale), False,
+                                                      monkeypatch)
+    cert, cert_solves, cert_scan = _certified_pair(1e-12, (scale, scale), True, monkeypatch)
+    assert plain.phi == cert.phi == 1.0
+    assert np.array_equal(cert.pressure, plain.pressure)
+    assert np.array_equal(cert.clearance, plain.clearance)
+    assert len(cert_solves) < len(plain_solves) if proved else \
+        sorted(cert_solves) == sorted(plain_solves)
+    assert cert_solves[1] == (1.0e9, SOLVER["tol"])     # after the one at no load: φ = 1
+    ref = {phi: f for phi, _, f in plain_scan}
+    assert all(f > 0 and ref[phi] > 0 for phi, _, f in cert_scan if phi in mixed.PHI_SCAN)
+
+
+@pytest.mark.parametrize("h_mean", [0.1e-6, 0.35e-6])
+def test_a_root_after_a_step_without_one_is_found_by_the_certified_scan(h_mean, monkeypatch):
+    """An evaluation without a root (the surfaces three times as rough), then one with a root
+    between two trials or below the first: the certified scan, started at φ = 1, finds the
+    plain scan's bracket and root (to the film tolerance, as two root searches from other
+    starts agree), and the next evaluation scans from φ = 0.25 again."""
+    plain, _, plain_scan = _certified_pair(h_mean, (3.0, 1.0), False, monkeypatch)
+    cert, solves, cert_scan = _certified_pair(h_mean, (3.0, 1.0), True, monkeypatch)
+    assert plain.phi < 1.0
+    assert solves[1] == (1.0e9, SOLVER["tol"])
+    assert cert.phi == pytest.approx(plain.phi, rel=1e-4)
+    assert np.abs(cert.pressure - plain.pressure).max() < 1e-4 * plain.pressure.max()
+    # the bracket: the smallest trial with f <= 0 in both
+    first = [min(phi for phi, _, f in scan if phi in mixed.PHI_SCAN and f <= 0)
+             for scan in (plain_scan, cert_scan)]
+    assert first[0] == first[1]
+    _, again, _ = _certified_pair(h_mean, (3.0, 1.0, 1.0), True, monkeypatch)
+    assert again[1][0] == 0.25e9

@@ -356,6 +356,7 @@ class MixedLubrication:
         h_bar = self.h_mean
         start0 = None if p_init is None else p_init[rows]
         state = {"p": start0, "iters": 0}
+        bound = {}      # φ: a lower bound on the exact balance f(φ) from the solve at φ
         self.last_scan = []
 
         def clearance_spectrum(phi):
@@ -401,13 +402,21 @@ class MixedLubrication:
                 sol = dry(start)
             state["iters"] += sol.iterations
             f = balance(phi, sol)
-            if loose:
-                (total, squares) = group.sums(gap0.sum(), (gap0 * gap0).sum())
-                rms = math.sqrt(max(squares / N - (total / N) ** 2, 0.0))
-                if abs(f) <= SCAN_SIGN_MARGIN * SCAN_TOLERANCE * rms:
-                    sol = dry(sol.pressure)
-                    state["iters"] += sol.iterations
-                    f = balance(phi, sol)
+            (total, squares) = group.sums(gap0.sum(), (gap0 * gap0).sum())
+            rms = math.sqrt(max(squares / N - (total / N) ** 2, 0.0))
+            if loose and abs(f) <= SCAN_SIGN_MARGIN * SCAN_TOLERANCE * rms:
+                sol = dry(sol.pressure)
+                state["iters"] += sol.iterations
+                f = balance(phi, sol)
+                loose = False
+            if held is None and phi in PHI_SCAN:
+                # the signed mean gap (≤ the open one where points yielded) less the film,
+                # and less the solve's error on it: what :meth:`_certified_scan` builds on
+                (signed,) = group.sums(sol.gap.sum())
+                error = SCAN_SIGN_MARGIN * (SCAN_TOLERANCE if loose else prm.tol) * rms
+                bound[phi] = (float(signed / N)
+                              - float(rheology.density_correction(phi * p_mean)) * h_bar
+                              - error)
             if group.any(sol.pressure):
                 state["p"] = sol.pressure
                 if warm is not None and phi in PHI_SCAN:
@@ -419,6 +428,8 @@ class MixedLubrication:
         if f0 <= 0.0:  # full film: the fluid carries everything, surfaces apart
             H_lub = fft.inverse(H_t)
             clearance = H_lub - H_lub.mean() + h_bar
+            if warm is not None:
+                warm["no_root"] = False
             return self._finish(H_t, r_tot, clearance, 0.0, p_mean, state["iters"], h_bar)
         # The balance need not be monotone in φ (with fluid_share = "scaled" the dry part acts
         # on less flattened roughness as φ grows): take the smallest root, bracketed by a
@@ -428,7 +439,16 @@ class MixedLubrication:
         lo, flo, sol_lo = 0.0, f0, None
         hi, fhi, sol = None, None, None
         coarse = self._coarse_scan(clearance_spectrum, p_mean, state, free)
-        if coarse is None:      # every trial on the window itself
+        if (coarse is None and SCAN_CERTIFY and held is None and warm is not None
+                and warm.get("no_root", False)):
+            # the last evaluation here found no root: φ = 1 first, and the trials below it
+            # that it proves above the film are not solved
+            spread = 0.0
+            if prm.fluid_share == "scaled":
+                d = fft.inverse(H_t - r_tot)
+                spread = float(d.max() - d.mean())
+            lo, flo, sol_lo, hi, fhi, sol = self._certified_scan(film, f0, bound, spread)
+        elif coarse is None:      # every trial on the window itself
             for trial in PHI_SCAN:
                 f, s_trial = film(trial)
                 if f <= 0.0:
@@ -467,8 +487,10 @@ class MixedLubrication:
                     if side < 0:
                         flo *= 0.5
                     side = -1
-        if warm is not None and hi is not None:
-            warm["root"], warm["phi"] = sol.pressure.astype(np.float32), phi
+        if warm is not None:
+            warm["no_root"] = hi is None
+            if hi is not None:
+                warm["root"], warm["phi"] = sol.pressure.astype(np.float32), phi
         clearance = sol.gap if group.slab is None else group.slab.allgather_rows(sol.gap)
         H_final = fft.forward(clearance)
         if prm.combine == "max_amplitude":
@@ -539,6 +561,38 @@ class MixedLubrication:
                 break
         return out
 
+    @staticmethod
+    def _certified_scan(film, f0: float, bound: dict, spread: float):
+        """The scan on the window from its top: φ = 1 solved first, then each lower trial of
+        :data:`PHI_SCAN` in order, unless a solved higher trial proves its balance positive,
+        up to the first with f ≤ 0; the answer (:func:`_bracket_from`) is the plain scan's
+        wherever the plain scan's signs are the exact balances' signs.
+
+        The proof: the trial φ_k's undeformed gap is φ_j's plus (φ_j − φ_k)·d, d the inverse
+        transform of the lubricated clearance less the rough one (``fluid_share = "scaled"``;
+        0 otherwise), and its load is lower. The contact is order-preserving, at a fixed
+        load the approach δ of a gap g0 + e lies in [δ + min e, δ + max e]; and δ rises with
+        the load; so the signed mean gap ⟨g0⟩ − δ at φ_k is at least φ_j's less
+        (φ_j − φ_k)(max d − ⟨d⟩) (``spread``). The open mean gap is at least the signed one,
+        and c_ρ rises with the pressure, so
+
+            f(φ_k) ≥ ⟨g⟩_j − c_ρ(φ_j p̄) h̄ − (φ_j − φ_k)·spread,
+
+        ``bound[φ_j]`` being the first two terms less the solve's error on them. Tests:
+        tests/test_multilevel_contact.py (the bound on random gaps, with and without the
+        pressure cap; the same answers as the plain scan's)."""
+        top = PHI_SCAN[-1]
+        fine = {top: film(top)}
+        for trial in PHI_SCAN[:-1]:
+            if any(b - (phi - trial) * spread > 0.0 for phi, b in bound.items()
+                   if phi > trial and phi in fine):
+                continue
+            fine[trial] = film(trial)
+            if fine[trial][0] <= 0.0:
+                break
+        roots = [t for t in PHI_SCAN if t in fine and fine[t][0] <= 0.0]
+        return _bracket_from(PHI_SCAN.index(roots[0]) if roots else None, fine, film, f0)
+
     def _verify_scan(self, coarse, film, f0):
         """The scan's bracket from the coarse scan ``coarse`` ([(φ, f_coarse)]) with as few
         solves on the window as will reproduce the fine scan's answer: the first trial φ_k of
@@ -575,21 +629,7 @@ class MixedLubrication:
                 if fine[trial][0] <= 0.0:
                     j = PHI_SCAN.index(trial)
                     break
-        if j is None:
-            f1, s1 = fine[PHI_SCAN[-1]]
-            return PHI_SCAN[-1], f1, s1, None, None, s1
-        hi, (fhi, sol_hi) = PHI_SCAN[j], fine[PHI_SCAN[j]]
-        # the bracket's lower end on the window; should it not be above the film after all,
-        # the bracket moves down to it
-        while j > 0:
-            lo = PHI_SCAN[j - 1]
-            if lo not in fine:
-                fine[lo] = film(lo)
-            flo, sol_lo = fine[lo]
-            if flo > 0.0:
-                return lo, flo, sol_lo, hi, fhi, sol_hi
-            j, hi, fhi, sol_hi = j - 1, lo, flo, sol_lo
-        return 0.0, f0, None, hi, fhi, sol_hi
+        return _bracket_from(j, fine, film, f0)
 
     def _finish(self, H, r_tot, clearance, phi, p_mean, iters, film_mean,
                 touch: float = 0.0) -> MixedSolution:
@@ -609,6 +649,11 @@ FACTOR_CACHE_BYTES = 256 * 2**20
 
 #: Load fractions tried, in order, to bracket the smallest root of the flow balance.
 PHI_SCAN = (0.25, 0.5, 0.75, 1.0)
+#: Where the last evaluation at a step found no root (φ = 1), the scan on the window starts at
+#: φ = 1 and solves only the lower trials that its bound does not prove above the film
+#: (:meth:`MixedLubrication._certified_scan`; docs/performance.md §11, "Trials proved above
+#: the film"). False: every trial, in order.
+SCAN_CERTIFY = True
 
 #: The tolerance of the dry solves of the scan's trials below its last (φ < 1) on the window
 #: ([measured], docs/performance.md, "The φ scan's trials to a loose tolerance"): only the sign
@@ -637,6 +682,28 @@ SCAN_POINTS = 128
 #: A trial below the candidate bracket is solved on the window too when its coarse film
 #: balance is within this many times the coarse balance's error at the candidate.
 SCAN_MARGIN = 4.0
+
+
+def _bracket_from(j: int | None, fine: dict, film, f0: float) -> tuple:
+    """The scan's answer from the trials solved on the window, ``fine`` ({φ: (f, solution)}),
+    whose smallest trial with f ≤ 0 is PHI_SCAN[j] (None: there is none, and φ = 1 is in
+    ``fine``): (lo, f(lo), solution at lo, hi, f(hi), solution at hi or, with no root, at
+    φ = 1), as the plain scan's loop returns them. The bracket's lower end is solved on the
+    window where it was not (``film``); should it not be above the film after all, the
+    bracket moves down to it (f0: the balance at φ = 0)."""
+    if j is None:
+        f1, s1 = fine[PHI_SCAN[-1]]
+        return PHI_SCAN[-1], f1, s1, None, None, s1
+    hi, (fhi, sol_hi) = PHI_SCAN[j], fine[PHI_SCAN[j]]
+    while j > 0:
+        lo = PHI_SCAN[j - 1]
+        if lo not in fine:
+            fine[lo] = film(lo)
+        flo, sol_lo = fine[lo]
+        if flo > 0.0:
+            return lo, flo, sol_lo, hi, fhi, sol_hi
+        j, hi, fhi, sol_hi = j - 1, lo, flo, sol_lo
+    return 0.0, f0, None, hi, fhi, sol_hi
 
 
 def restore_mean(p: np.ndarray, p_mean: float, p_lim: float = math.inf) -> np.ndarray:
