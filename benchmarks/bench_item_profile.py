@@ -20,6 +20,11 @@ many of them went to solves thrown away (cut after their solve by the accuracy o
 limit, or not converged; docs/life.md, "Steps cut at the shape limit"), then the block's
 numbers.
 
+``--time`` instead of the profile: the block's wall time without the profiler and its dry
+solves, then its numbers; ``--plain-scan`` (with any mode): every trial of the load-fraction
+scan solved in order, as before the scan started at φ = 1 where the last evaluation found no
+root (``mixed.SCAN_CERTIFY``; docs/performance.md §11, "Trials proved above the film").
+
 Timings, not tests: the profiler itself adds about a third to a contact-bound block.
 """
 
@@ -70,10 +75,20 @@ def main(argv=None) -> int:
     ap.add_argument("--wear-steps", action="store_true",
                     help="the implicit wear's accepted and thrown-away solves instead of the "
                     "profile")
+    ap.add_argument("--time", action="store_true",
+                    help="the block's wall time and dry solves without the profiler instead "
+                    "of the profile")
+    ap.add_argument("--plain-scan", action="store_true",
+                    help="every trial of the load-fraction scan solved, in order "
+                    "(mixed.SCAN_CERTIFY off)")
     a = ap.parse_args(argv)
     run = item_from_arguments(a)
+    if a.plain_scan:
+        mixed.SCAN_CERTIFY = False
     if a.scan:
         return scan_statistics(run, a.cycles_M * 1e6)
+    if a.time:
+        return timed(run, a.cycles_M * 1e6)
     if a.wear_steps:
         return wear_step_statistics(run, a.cycles_M * 1e6)
     prof = cProfile.Profile()
@@ -91,6 +106,26 @@ def block_numbers(rec) -> str:
     """The block's sub-blocks, contact-only cycles, A_p and wear, for comparing two codes."""
     return (f"sub-blocks {rec.sub_blocks}, contact-only cycles {rec.wear_cycles}; A_p "
             f"{rec.Ap[0]!r} / {rec.Ap[1]!r} %; wear {sum(rec.wear_mean)!r} m")
+
+
+def timed(run, cycles: float) -> int:
+    """One block of ``run`` without the profiler, its dry solves counted: ``--time``."""
+    orig, solves = mixed.solve_dry_contact, [0]
+
+    def dry(*args, **kw):
+        solves[0] += 1
+        return orig(*args, **kw)
+
+    mixed.solve_dry_contact = dry
+    try:
+        t0 = time.perf_counter()
+        rec = run.run_block(cycles)
+        wall = time.perf_counter() - t0
+    finally:
+        mixed.solve_dry_contact = orig
+    print(f"wall {wall:.1f} s, dry solves {solves[0]} (scan certified: {mixed.SCAN_CERTIFY}); "
+          f"{block_numbers(rec)}")
+    return 0
 
 
 def wear_step_statistics(run, cycles: float) -> int:
