@@ -331,7 +331,10 @@ class MixedLubrication:
         then solved on the window (:meth:`_verify_scan`), with the same bracket, root and
         pressures as a scan made on the window at every trial (tests/test_multilevel_contact.py).
         Where the root is φ = 1 (the paper gear's rough positions) that is one solve on the
-        window instead of four.
+        window instead of four. A window scanned on itself (too small to be coarsened) whose
+        last evaluation at this step (``warm``) found no root starts at φ = 1 and skips the
+        trials that solve proves above the film (:meth:`_certified_scan`,
+        :data:`SCAN_CERTIFY`; not with open pits).
 
         ``free``: the columns of open micropits (``life.pit_contact = "open"``; whole window,
         None: none): the dry solves hold them at p = 0 (:func:`~.dry.solve_dry_contact`), so
