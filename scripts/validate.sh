@@ -13,9 +13,9 @@
 # scene that scripts/paper-scene.sh writes with that one key changed, and the report gives it
 # beside each trend. PAPER=0 skips the twins (the report then says they are missing);
 # PAPER_ONLY=1 runs only the twins (the report reuses the last default runs). Run times on 2
-# ranks of a 2-core machine (2026-12-02, the default's process length of 5 µm): the gear scenes
-# 29 + 2.5 + 2 + 2 min wall clock, the MPR scenes without wear 2.4 + 1 min, all twins 10 min,
-# β_x = 60 and 120 µm 19 and 26 min; the MPR scenes with wear (Table 9) at 128² and β_x = 15 µm
+# idle ranks of a 2-core machine (2026-12-02, commit b95c279): the gear scenes
+# 14.6 + 1.5 + 1.1 + 1.2 min wall clock, the MPR scenes without wear 1.9 + 1 min, all twins
+# 7 min, β_x = 60 and 120 µm 16 and 24 min: 68 min; the MPR scenes with wear (Table 9) at 128² and β_x = 15 µm
 # were not run then (docs/validation/findings.md).
 # The A_p-against-ΔN table comes from
 # benchmarks/results/block_scheme.csv (benchmarks/bench_block_scheme.py) when it is there.

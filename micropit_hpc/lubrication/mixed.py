@@ -331,8 +331,9 @@ class MixedLubrication:
         then solved on the window (:meth:`_verify_scan`), with the same bracket, root and
         pressures as a scan made on the window at every trial (tests/test_multilevel_contact.py).
         Where the root is φ = 1 (the paper gear's rough positions) that is one solve on the
-        window instead of four. A window scanned on itself (too small to be coarsened) whose
-        last evaluation at this step (``warm``) found no root starts at φ = 1 and skips the
+        window instead of four. A window scanned on itself (too small to be coarsened, or its
+        coarse scan failed) whose last evaluation at this step (``warm``) found no root
+        starts at φ = 1 and skips the
         trials that solve proves above the film (:meth:`_certified_scan`,
         :data:`SCAN_CERTIFY`; not with open pits).
 
@@ -359,7 +360,7 @@ class MixedLubrication:
         h_bar = self.h_mean
         start0 = None if p_init is None else p_init[rows]
         state = {"p": start0, "iters": 0}
-        bound = {}      # φ: a lower bound on the exact balance f(φ) from the solve at φ
+        bound = {}      # φ = 1: a lower bound on the exact balance f(φ) below it
         self.last_scan = []
 
         def clearance_spectrum(phi):
@@ -412,7 +413,7 @@ class MixedLubrication:
                 state["iters"] += sol.iterations
                 f = balance(phi, sol)
                 loose = False
-            if held is None and phi in PHI_SCAN:
+            if held is None and phi == PHI_SCAN[-1]:
                 # the signed mean gap (≤ the open one where points yielded) less the film,
                 # and less the solve's error on it: what :meth:`_certified_scan` builds on
                 (signed,) = group.sums(sol.gap.sum())
@@ -449,7 +450,9 @@ class MixedLubrication:
             spread = 0.0
             if prm.fluid_share == "scaled":
                 d = fft.inverse(H_t - r_tot)
-                spread = float(d.max() - d.mean())
+                # each rank's own transform: the group's largest, so that every rank decides
+                # alike however its plan rounds
+                spread = group.max(float(d.max() - d.mean()))
             lo, flo, sol_lo, hi, fhi, sol = self._certified_scan(film, f0, bound, spread)
         elif coarse is None:      # every trial on the window itself
             for trial in PHI_SCAN:
@@ -566,29 +569,33 @@ class MixedLubrication:
 
     @staticmethod
     def _certified_scan(film, f0: float, bound: dict, spread: float):
-        """The scan on the window from its top: φ = 1 solved first, then each lower trial of
-        :data:`PHI_SCAN` in order, unless a solved higher trial proves its balance positive,
-        up to the first with f ≤ 0; the answer (:func:`_bracket_from`) is the plain scan's
-        wherever the plain scan's signs are the exact balances' signs.
+        """The scan on the window from its top: φ = 1 solved first (``film`` writes its bound
+        into ``bound``), then each lower trial of :data:`PHI_SCAN` in order unless that bound
+        proves its balance positive, up to the first with f ≤ 0; the answer
+        (:func:`_bracket_from`) is the plain scan's wherever the plain scan's signs are the
+        exact balances' signs.
 
-        The proof: the trial φ_k's undeformed gap is φ_j's plus (φ_j − φ_k)·d, d the inverse
+        The proof: the trial φ_k's undeformed gap is φ = 1's plus (1 − φ_k)·d, d the inverse
         transform of the lubricated clearance less the rough one (``fluid_share = "scaled"``;
-        0 otherwise), and its load is lower. The contact is order-preserving, at a fixed
-        load the approach δ of a gap g0 + e lies in [δ + min e, δ + max e]; and δ rises with
-        the load; so the signed mean gap ⟨g0⟩ − δ at φ_k is at least φ_j's less
-        (φ_j − φ_k)(max d − ⟨d⟩) (``spread``). The open mean gap is at least the signed one,
-        and c_ρ rises with the pressure, so
+        0 otherwise), and its load is lower. The contact is order-preserving: at a fixed
+        load the approach δ of a gap g0 + e lies in [δ + min e, δ + max e] (measured, not
+        proved for the discrete operator, whose stiffness has small positive off-diagonal
+        entries; tests/test_multilevel_contact.py); and δ rises with the load (it is the
+        multiplier of a convex problem's load constraint). So the signed mean gap ⟨g0⟩ − δ
+        at φ_k is at least φ = 1's less (1 − φ_k)(max d − ⟨d⟩) (``spread``). The open mean
+        gap is at least the signed one, and c_ρ rises with the pressure, so
 
-            f(φ_k) ≥ ⟨g⟩_j − c_ρ(φ_j p̄) h̄ − (φ_j − φ_k)·spread,
+            f(φ_k) ≥ ⟨g⟩₁ − c_ρ(p̄) h̄ − (1 − φ_k)·spread,
 
-        ``bound[φ_j]`` being the first two terms less the solve's error on them. Tests:
-        tests/test_multilevel_contact.py (the bound on random gaps, with and without the
-        pressure cap; the same answers as the plain scan's)."""
+        ``bound[1]`` being the first two terms less the solve's error on them, never above
+        f(1). So the trials skipped are the top ones, below any solved trial, and the lower
+        end of a bracket is a solved trial (or φ = 0). Tests: tests/test_multilevel_contact.py
+        (the two properties on random gaps, with and without the pressure cap; the trials a
+        tabulated balance has solved; the same answers as the plain scan's)."""
         top = PHI_SCAN[-1]
         fine = {top: film(top)}
         for trial in PHI_SCAN[:-1]:
-            if any(b - (phi - trial) * spread > 0.0 for phi, b in bound.items()
-                   if phi > trial and phi in fine):
+            if top in bound and bound[top] - (top - trial) * spread > 0.0:
                 continue
             fine[trial] = film(trial)
             if fine[trial][0] <= 0.0:
