@@ -333,9 +333,8 @@ class MixedLubrication:
         Where the root is φ = 1 (the paper gear's rough positions) that is one solve on the
         window instead of four. A window scanned on itself (too small to be coarsened, or its
         coarse scan failed) whose last evaluation at this step (``warm``) found no root
-        starts at φ = 1 and skips the
-        trials that solve proves above the film (:meth:`_certified_scan`,
-        :data:`SCAN_CERTIFY`; not with open pits).
+        starts at φ = 1 and skips the trials that solve proves above the film
+        (:meth:`_certified_scan`, :data:`SCAN_CERTIFY`; not with open pits).
 
         ``free``: the columns of open micropits (``life.pit_contact = "open"``; whole window,
         None: none): the dry solves hold them at p = 0 (:func:`~.dry.solve_dry_contact`), so
@@ -360,7 +359,11 @@ class MixedLubrication:
         h_bar = self.h_mean
         start0 = None if p_init is None else p_init[rows]
         state = {"p": start0, "iters": 0}
-        bound = {}      # φ = 1: a lower bound on the exact balance f(φ) below it
+        # the scan may start at φ = 1 (:meth:`_certified_scan`): its solve then writes a lower
+        # bound on the exact balance below it into ``bound``
+        certify = (SCAN_CERTIFY and held is None and warm is not None
+                   and warm.get("no_root", False))
+        bound = {}
         self.last_scan = []
 
         def clearance_spectrum(phi):
@@ -406,14 +409,16 @@ class MixedLubrication:
                 sol = dry(start)
             state["iters"] += sol.iterations
             f = balance(phi, sol)
-            (total, squares) = group.sums(gap0.sum(), (gap0 * gap0).sum())
-            rms = math.sqrt(max(squares / N - (total / N) ** 2, 0.0))
+            top = certify and phi == PHI_SCAN[-1]
+            if loose or top:
+                (total, squares) = group.sums(gap0.sum(), (gap0 * gap0).sum())
+                rms = math.sqrt(max(squares / N - (total / N) ** 2, 0.0))
             if loose and abs(f) <= SCAN_SIGN_MARGIN * SCAN_TOLERANCE * rms:
                 sol = dry(sol.pressure)
                 state["iters"] += sol.iterations
                 f = balance(phi, sol)
                 loose = False
-            if held is None and phi == PHI_SCAN[-1]:
+            if top:
                 # the signed mean gap (≤ the open one where points yielded) less the film,
                 # and less the solve's error on it: what :meth:`_certified_scan` builds on
                 (signed,) = group.sums(sol.gap.sum())
@@ -443,8 +448,7 @@ class MixedLubrication:
         lo, flo, sol_lo = 0.0, f0, None
         hi, fhi, sol = None, None, None
         coarse = self._coarse_scan(clearance_spectrum, p_mean, state, free)
-        if (coarse is None and SCAN_CERTIFY and held is None and warm is not None
-                and warm.get("no_root", False)):
+        if coarse is None and certify:
             # the last evaluation here found no root: φ = 1 first, and the trials below it
             # that it proves above the film are not solved
             spread = 0.0
