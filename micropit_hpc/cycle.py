@@ -193,6 +193,23 @@ def micro_cycles(cycle: PositionCycle, body: int, lam_c: float) -> float:
 #: ``"cosine"``, x_c = −b cos θ_j with θ_j = (j + ½)π/m; ``"uniform"``, t_j = (j + ½) t_f/m.
 STEP_SPACINGS = ("cosine", "uniform")
 
+_HISTORY_BUFFER: list[np.ndarray] = []
+
+
+def history_buffer(size: int) -> np.ndarray:
+    """A float64 array of ``size`` elements for the stress history's chunks
+    (:meth:`PositionCycle._streamed_dang_van`), one per process, reused by every load cycle and
+    work item and grown to the largest asked for. A fresh array of tens of MB is a fresh
+    ``mmap`` whose every page the kernel faults in at its first write, at every full
+    evaluation of every body (docs/performance.md §2, "The history's buffer kept"); the items
+    of a rank run one after another, so they can share it. It is the
+    one chunk per rank that :mod:`micropit_hpc.estimate` counts. Its values are garbage:
+    :meth:`PositionCycle.stress_history` writes every element before Dang Van reads it."""
+    if not _HISTORY_BUFFER or _HISTORY_BUFFER[0].size < size:
+        _HISTORY_BUFFER[:] = []             # the old one freed before the larger is made
+        _HISTORY_BUFFER.append(np.empty(size))
+    return _HISTORY_BUFFER[0][:size]
+
 
 def step_weights(m: int, spacing: str = "uniform") -> np.ndarray:
     """Each step's share w_j of the transit time (Σ w_j = 1): the time cell it stands for.
@@ -697,10 +714,18 @@ class PositionCycle:
             raise ValueError(f"out has shape {hist.shape}, expected {shape}")
         if len(macro) != len(spectra):
             raise ValueError(f"{len(spectra)} steps of spectra but {len(macro)} of macro field")
-        if self.stress_by_steps:
+        micro = None if self.stress_by_steps else self._micro_field(body)
+        if micro is not None and micro.serial:
+            # one rank: each layer's micro field plus the macro field written in one pass
+            # from the transform's output (the same sum as the copy and the += below)
+            for j, (P_hat, T_hat) in enumerate(spectra):
+                mac = macro[j][:, layers]
+                for kk, sigma in micro.layer_fields(P_hat, T_hat, layers=layers):
+                    np.add(sigma, mac[:, kk], out=hist[j, :, kk])
+            return hist
+        if micro is None:
             self._history_by_steps(spectra, body, layers, hist)
         else:
-            micro = self._micro_field(body)
             for j, (P_hat, T_hat) in enumerate(spectra):
                 micro.stresses(P_hat, T_hat, out=hist[j], layers=layers)
         for j, mac in enumerate(macro):
@@ -786,7 +811,7 @@ class PositionCycle:
         stream = DangVanStream(m, nz * plane, alpha=self.alpha_dv, batch=DV_CHUNK,
                                keep_series=rainflow)
         size = self.chunk_layers(m)
-        buf = np.empty(m * 6 * size * plane)
+        buf = history_buffer(m * 6 * size * plane)
         for k0 in range(0, nz, size):
             k1 = min(nz, k0 + size)
             hist = buf[:m * 6 * (k1 - k0) * plane].reshape(m, 6, k1 - k0, rows, ny)

@@ -457,3 +457,19 @@ def test_a_warm_start_that_stalls_is_retried_cold(monkeypatch):
     monkeypatch.setitem(PositionCycle._CONTACT, cyc.level, never)
     with pytest.raises(ContactError, match="no solution"):
         cyc.solve_step(1)
+
+
+def test_the_history_buffer_is_one_array_reused_and_grown(monkeypatch):
+    """The stress history's chunks of every evaluation write into one array per process
+    (:func:`micropit_hpc.cycle.history_buffer`): the same memory again for a size it holds,
+    a larger array (the old one dropped) for a larger size, and always exactly ``size``
+    elements."""
+    monkeypatch.setattr(cycle_module, "_HISTORY_BUFFER", [])
+    a = cycle_module.history_buffer(1000)
+    assert a.size == 1000 and a.dtype == np.float64
+    b = cycle_module.history_buffer(600)
+    assert b.size == 600 and np.shares_memory(a, b)
+    c = cycle_module.history_buffer(5000)
+    assert c.size == 5000 and not np.shares_memory(a, c)
+    assert len(cycle_module._HISTORY_BUFFER) == 1
+    assert np.shares_memory(cycle_module.history_buffer(1000), c)

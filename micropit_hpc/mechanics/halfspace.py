@@ -222,6 +222,12 @@ class HalfSpaceStress:
         self._planes = None
 
     @property
+    def serial(self) -> bool:
+        """True when the whole window is on this rank (a one-rank slab): :meth:`layer_fields`
+        is available."""
+        return self._plan is not None
+
+    @property
     def n_layers(self) -> int:
         return self.z.size
 
@@ -303,7 +309,7 @@ class HalfSpaceStress:
         batch plan's output, valid until the next layer is made. The whole window on one
         rank only (a slab of several ranks has no such buffer: use :meth:`stresses`); the
         same numbers as :meth:`stresses`."""
-        if self._plan is None:
+        if not self.serial:
             raise ValueError("layer_fields needs the whole window on one rank (a one-rank slab)")
         idx = self._layer_indices(layers)
         for kk, _ in self._layer_spectra(P_hat, Tx_hat, Ty_hat, idx, kernel):
