@@ -30,6 +30,7 @@ from micropit_hpc.lubrication.dry import (
     iteration_stages,
     solve_dry_contact,
 )
+from micropit_hpc.lubrication.mixed import restore_mean
 from micropit_hpc.mechanics import HalfSpaceStress, depth_layers
 from micropit_hpc.spectral import Grid, rfft_plan
 
@@ -189,14 +190,20 @@ def test_without_numba_the_numpy_path_is_taken(monkeypatch):
     stress = HalfSpaceStress(grid, [0.0, 1e-5], 0.3)
     spectra = [s.copy() for s in stress.spectra(*np.random.default_rng(2).normal(size=(3, 16, 16)))]
     s_expect = stress.stresses(*spectra, kernel="numpy").copy()
+    field = np.random.default_rng(3).normal(1e9, 2e9, (32, 32))
+    m_expect = restore_mean(field, 1.2e9, 4e9, kernel="numpy")
     monkeypatch.setitem(sys.modules, "numba", None)                    # import numba fails
-    for name in ("lubrication._dry_numba", "mechanics._halfspace_numba"):
+    for name in ("lubrication._dry_numba", "mechanics._halfspace_numba",
+                 "lubrication._mixed_numba"):
         monkeypatch.delitem(sys.modules, f"micropit_hpc.{name}", raising=False)
     monkeypatch.setattr(compiled, "_loaded", {})                       # forget the last imports
     assert isinstance(iteration_stages(gap0.shape), NumpyStages)
     got = solve_dry_contact(gap0, hs, 1e9, tol=1e-10, max_iter=5000)
     assert np.array_equal(got.pressure, expect.pressure)
     assert np.array_equal(stress.stresses(*spectra), s_expect)
+    assert np.array_equal(restore_mean(field, 1.2e9, 4e9), m_expect)
+    with pytest.raises(ImportError, match="needs Numba"):
+        restore_mean(field, 1.2e9, 4e9, kernel="numba")
     with pytest.raises(ImportError, match="needs Numba"):
         solve_dry_contact(gap0, hs, 1e9, tol=1e-10, max_iter=5000, kernel="numba")
     with pytest.raises(ImportError, match="needs Numba"):

@@ -204,28 +204,39 @@ def test_intermediate_film_balances_the_flow():
     assert thinner.phi > sol.phi                 # less film, more load on the asperities
 
 
-def test_restore_mean_is_exact_with_clipping():
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_restore_mean_is_exact_with_clipping(kernel):
     rng = np.random.default_rng(0)
     p = rng.normal(1e9, 2e9, (32, 32))
-    q = restore_mean(p, 1.2e9, 4e9)
+    q = restore_mean(p, 1.2e9, 4e9, kernel=kernel)
     assert q.mean() == pytest.approx(1.2e9, rel=1e-12)
     assert q.min() >= 0.0 and q.max() <= 4e9
 
 
-def _restore_mean_by_bisection(p, p_mean, p_lim=math.inf):
+def _numpy_mean(p, c, p_lim):
+    return np.clip(p + c, 0.0, p_lim).mean()
+
+
+def _compiled_mean(p, c, p_lim):
+    mod = compiled_module("lubrication._mixed_numba")
+    return mod.clipped_sum(p.ravel(order="K"), c, p_lim)[0] / p.size
+
+
+def _restore_mean_by_bisection(p, p_mean, p_lim=math.inf, mean=_numpy_mean):
     """The definition restore_mean keeps: bisection of the whole bracket down to adjacent
-    floats, np.clip and .mean() at every step (the code before the narrow start)."""
+    floats, np.clip and the kernel's mean at every step (the code before the narrow start)."""
     lo, hi = p_mean - p.max(), 2 * p_mean - p.min()
     for _ in range(200):
         c = 0.5 * (lo + hi)
         if not lo < c < hi:
             break
-        if np.clip(p + c, 0.0, p_lim).mean() > p_mean:
+        if mean(p, c, p_lim) > p_mean:
             hi = c
         else:
             lo = c
     q_lo, q_hi = np.clip(p + lo, 0.0, p_lim), np.clip(p + hi, 0.0, p_lim)
-    return q_lo if abs(q_lo.mean() - p_mean) <= abs(q_hi.mean() - p_mean) else q_hi
+    near_lo = abs(mean(p, lo, p_lim) - p_mean) <= abs(mean(p, hi, p_lim) - p_mean)
+    return q_lo if near_lo else q_hi
 
 
 def _restore_cases():
@@ -239,20 +250,43 @@ def _restore_cases():
     yield np.where(rng.random((64, 64)) < 0.05, 3.9e9, 0.0), 0.2e9, 4e9   # few spots
     yield np.where(rng.random(3000) < 0.5, 4e9, 1e3), 3.99e9, 4e9          # 1-D, near p_lim
     yield np.asfortranarray(rng.normal(0.0, 1e9, (48, 40))), 0.7e9, 3e9    # F order
+    yield rng.normal(0.0, 1e9, (64, 80))[::2, 1::3], 0.4e9, 4e9   # a strided view
     yield rng.lognormal(20.0, 1.0, (30, 50)), 1e-3, 4e9            # tiny mean
     a = rng.normal(1e9, 1e9, (64, 64))
     a[a < 0] = 0.0
     yield a, float(a.mean()), 4e9                                 # already at p̄
 
 
-def test_restore_mean_is_the_bisection_bit_for_bit():
+@pytest.mark.parametrize("kernel", KERNELS)
+def test_restore_mean_is_the_bisection_bit_for_bit(kernel):
     """The narrow start (Newton, then a widened bracket) ends the bisection on the same two
-    floats as the full bracket, so the field is the same array bit for bit."""
+    floats as the full bracket, so the field is the same array bit for bit: with NumPy's mean
+    as with the compiled one (each against a bisection on its own mean)."""
+    mean = _numpy_mean if kernel == "numpy" else _compiled_mean
     for p, p_mean, p_lim in _restore_cases():
-        q = restore_mean(p, p_mean, p_lim)
-        ref = _restore_mean_by_bisection(p, p_mean, p_lim)
+        q = restore_mean(p, p_mean, p_lim, kernel=kernel)
+        ref = _restore_mean_by_bisection(p, p_mean, p_lim, mean)
         assert q.shape == ref.shape and q.flags.f_contiguous == ref.flags.f_contiguous
         assert np.array_equal(q.view(np.int64), ref.view(np.int64)), (p.shape, p_mean)
+
+
+@needs_numba
+def test_restore_mean_kernels_agree_to_their_rounding():
+    """The two kernels add the clipped field in different orders, so their constants c may
+    differ, but each field's exact mean (math.fsum) is p̄ to the rounding of an n-term sum
+    (n ε max q), and the fields differ by at most twice that over the share s of points
+    strictly inside (0, p_lim), where the mean moves with c at slope s."""
+    eps = np.finfo(float).eps
+    for p, p_mean, p_lim in _restore_cases():
+        a = restore_mean(p, p_mean, p_lim, kernel="numpy")
+        b = restore_mean(p, p_mean, p_lim, kernel="numba")
+        n, top = p.size, max(float(a.max()), float(b.max()), p_mean)
+        bound = n * eps * top
+        for q in (a, b):
+            assert abs(math.fsum(q.ravel()) / n - p_mean) <= bound, (p.shape, p_mean)
+        s = np.count_nonzero((a > 0.0) & (a < p_lim)) / n
+        if s > 0:
+            assert np.max(np.abs(a - b)) <= 2 * bound / s + 2 * eps * top, (p.shape, p_mean)
 
 
 def test_cached_lubricated_factors_equal_the_computed_ones():

@@ -1,5 +1,8 @@
-"""Compiled dispersion relation (Numba): :func:`micropit_hpc.lubrication.mixed.solve_dispersion`
-one mode at a time.
+"""Compiled stages of :mod:`micropit_hpc.lubrication.mixed` (Numba): the dispersion relation
+(:func:`~micropit_hpc.lubrication.mixed.solve_dispersion`) one mode at a time, and the clipped
+mean of :func:`~micropit_hpc.lubrication.mixed.restore_mean` in one pass (:func:`clipped_sum`).
+
+The dispersion relation:
 
 The same Newton iteration with continuation in c from the inviscid root ψ = a, the same stages
 and the same equations per mode as the NumPy reference, with two differences in where it
@@ -96,3 +99,22 @@ def dispersion(a, ky2, c, e, eta_x, eta_y, stages, newton, tol, tol_stage, psi):
         if r > worst:
             worst = r
     return worst, steps
+
+
+@njit(cache=True, fastmath={"reassoc", "nsz"})
+def clipped_sum(p, c, p_lim):
+    """(Σ clip(p + c, 0, p_lim), the number of points with 0 < clip(p + c, 0, p_lim) < p_lim)
+    over the flat array ``p``: one pass of :func:`~micropit_hpc.lubrication.mixed.restore_mean`'s
+    mean and Newton slope, where NumPy makes four to seven. Each term is NumPy's
+    ``maximum(minimum(p + c, p_lim), 0)`` (a NaN stays NaN); the terms are added in vector
+    lanes (``reassoc``), another order than NumPy's pairwise sum, but a fixed one, so the sum is
+    still a non-decreasing function of c (each term is, and rounding is monotone)."""
+    s = 0.0
+    n = 0
+    for i in range(p.size):
+        v = p[i] + c
+        v = p_lim if v > p_lim else v
+        v = 0.0 if v < 0.0 else v
+        s += v
+        n += (v > 0.0) & (v < p_lim)
+    return s, n

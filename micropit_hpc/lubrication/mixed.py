@@ -720,7 +720,15 @@ def _bracket_from(j: int | None, fine: dict, film, f0: float) -> tuple:
     return 0.0, f0, None, hi, fhi, sol_hi
 
 
-def restore_mean(p: np.ndarray, p_mean: float, p_lim: float = math.inf) -> np.ndarray:
+#: The implementation of :func:`restore_mean`'s clipped means
+#: (:data:`~micropit_hpc.compiled.KERNELS`): "numba" adds each in one compiled pass
+#: (``_mixed_numba.clipped_sum``), "numpy" with NumPy's pairwise sum; each answer is exact for
+#: its own sum, and the two agree to round-off (tests/test_mixed.py).
+MEAN_KERNEL = "auto"
+
+
+def restore_mean(p: np.ndarray, p_mean: float, p_lim: float = math.inf,
+                 kernel: str | None = None) -> np.ndarray:
     """clip(p + c, 0, p_lim) with the constant c chosen so the mean is p̄.
 
     The mean m(c) = ⟨clip(p + c, 0, p_lim)⟩ is continuous and non-decreasing in c, and so is
@@ -732,21 +740,41 @@ def restore_mean(p: np.ndarray, p_mean: float, p_lim: float = math.inf) -> np.nd
     safeguarded Newton steps (:func:`_mean_root`; slope: the share of points strictly
     between 0 and p_lim), widened until it brackets: the same floats as the full bisection
     (tests/test_mixed.py holds it to that bit for bit) in about a quarter of the passes.
-    Each pass is a minimum and a maximum in a scratch array; their sum over n is the same
-    float as ``np.clip(...).mean()``."""
+    ``kernel`` (None: :data:`MEAN_KERNEL`): how m is added. "numpy": each pass a minimum and
+    a maximum in a scratch array, their sum over n the same float as ``np.clip(...).mean()``;
+    "numba": each pass (mean and slope) one compiled loop in another summation order, so its
+    floats lo, hi are those of its own m, within round-off of NumPy's."""
     if p_mean >= p_lim:
         raise MicropitError(f"mean pressure {p_mean / 1e9:.4g} GPa ≥ p_lim "
                             f"{p_lim / 1e9:.4g} GPa: the window cannot carry it")
+    compiled = resolve(MEAN_KERNEL if kernel is None else kernel, "lubrication._mixed_numba",
+                       "restore_mean")
     buf, n = np.empty_like(p), p.size
 
-    def mean_at(c: float) -> float:
+    def clipped(c: float) -> np.ndarray:
         np.add(p, c, out=buf)
         np.minimum(buf, p_lim, out=buf)
         np.maximum(buf, 0.0, out=buf)
-        return float(buf.sum() / n)
+        return buf
+
+    if compiled is None:
+        def mean_at(c: float) -> float:
+            return float(clipped(c).sum() / n)
+
+        def slope() -> float:           # at the last mean_at
+            return np.count_nonzero((buf > 0.0) & (buf < p_lim)) / n
+    else:
+        flat, inside = p.ravel(order="K"), [0]
+
+        def mean_at(c: float) -> float:
+            total, inside[0] = compiled.clipped_sum(flat, float(c), float(p_lim))
+            return total / n
+
+        def slope() -> float:
+            return inside[0] / n
 
     lo, hi = p_mean - p.max(), 2 * p_mean - p.min()
-    root = _mean_root(p, p_mean, p_lim, lo, hi, mean_at, buf)
+    root = _mean_root(p, p_mean, lo, hi, mean_at, slope)
     if root is not None:
         lo, hi = _bracket(root, lo, hi, p_mean, mean_at)
     for _ in range(200):
@@ -757,21 +785,20 @@ def restore_mean(p: np.ndarray, p_mean: float, p_lim: float = math.inf) -> np.nd
             hi = c
         else:
             lo = c
-    m_lo = mean_at(lo)
-    q_lo = buf.copy(order="K")
-    m_hi = mean_at(hi)
-    return q_lo if abs(m_lo - p_mean) <= abs(m_hi - p_mean) else buf
+    m_lo, m_hi = mean_at(lo), mean_at(hi)
+    return clipped(lo if abs(m_lo - p_mean) <= abs(m_hi - p_mean) else hi)
 
 
 #: Newton steps :func:`restore_mean` spends on its root before it bisects from the bracket.
 MEAN_NEWTON_STEPS = 12
 
 
-def _mean_root(p, p_mean, p_lim, lo, hi, mean_at, buf) -> float | None:
+def _mean_root(p, p_mean, lo, hi, mean_at, slope) -> float | None:
     """Safeguarded Newton on m(c) − p̄ (:func:`restore_mean`) from c = p̄ − ⟨p⟩: a root to
     round-off, or None (non-finite values, or no convergence within
     :data:`MEAN_NEWTON_STEPS`). Each step stays inside the bracket it narrows, bisecting
-    where a Newton step would leave it or the slope is zero."""
+    where a Newton step would leave it or the slope (``slope()``, at the last ``mean_at``)
+    is zero."""
     if not (math.isfinite(lo) and math.isfinite(hi)):
         return None
     c = min(max(p_mean - float(p.mean()), lo), hi)
@@ -783,8 +810,8 @@ def _mean_root(p, p_mean, p_lim, lo, hi, mean_at, buf) -> float | None:
             hi = c
         else:
             lo = c
-        slope = np.count_nonzero((buf > 0.0) & (buf < p_lim)) / p.size
-        step = c - f / slope if slope > 0 else 0.5 * (lo + hi)
+        d = slope()
+        step = c - f / d if d > 0 else 0.5 * (lo + hi)
         if not lo < step < hi:
             step = 0.5 * (lo + hi)
         if step == c or not lo < step < hi:
