@@ -16,7 +16,8 @@
 # idle ranks of a 2-core machine (2026-12-02, commit b95c279): the gear scenes
 # 14.6 + 1.5 + 1.1 + 1.2 min wall clock, the MPR scenes without wear 1.9 + 1 min, all twins
 # 7 min, β_x = 60 and 120 µm 16 and 24 min: 68 min; the MPR scenes with wear (Table 9) at 128² and β_x = 15 µm
-# were not run then (docs/validation/findings.md).
+# were not run then (docs/validation/findings.md). β_x = 15 µm alone took 49.7 min on a slower machine
+# (2026-12-03, about twice the scene's 30 µm on one machine: up to 125 steps per load cycle).
 # The A_p-against-ΔN table comes from
 # benchmarks/results/block_scheme.csv (benchmarks/bench_block_scheme.py) when it is there.
 # Last, the gear trends' sensitivity to the unknown slope of the paper's flanks: scenes/
