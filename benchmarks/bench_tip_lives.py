@@ -10,29 +10,61 @@ have to remove before the point fails. The Archard rate is linear in k_lub (both
 and its solid part), so one evaluation serves every ``--k-lub`` (the first one's, scaled).
 
     python benchmarks/bench_tip_lives.py --position 5 --n 64 --csv results/tip_lives_p5_64.csv
+
+Each row names the scene (its file stem) and the criterion's process length ℓ [µm] the run
+used (``fatigue.process_length_um`` or its integration's default), so rows of several scenes
+and lengths can share a file: ``--csv`` appends to an existing file with these columns and
+refuses one with other columns, naming it (older files of this benchmark have only one of the
+two: write the new rows elsewhere).
 """
 
 from __future__ import annotations
 
 import argparse
+import csv
 import sys
 from pathlib import Path
 
 import numpy as np
-from bench_wear_convergence import item_run, reference_surfaces
-from table import emit, write_csv
+from bench_wear_convergence import item_run, reference_surfaces, scene_name
+from table import emit
 
 from micropit_hpc.life import contact_surfaces
 from micropit_hpc.scene import load_scene
 from micropit_hpc.wear import to_material_frame
 
 ROOT = Path(__file__).resolve().parents[1]
-COLUMNS = ("position", "k_lub_s", "n", "body", "columns_failing", "share_pct",
+COLUMNS = ("scene", "process_length_um", "position", "k_lub_s", "n", "body", "columns_failing",
+           "share_pct",
            "share_below_n_min_pct", "share_at_surface_pct", "N_f_p10", "N_f_p50", "N_f_p90",
            "z_f_um_p50",
            "p_max_over_p_lim_p50", "tau_dv_MPa_p50", "wear_in_N_f_nm_p50",
            "wear_in_N_f_nm_p90", "wear_over_z_f_p50", "wear_over_z_f_p90",
            "cycles_to_wear_z_f_p50")
+
+
+def append_rows(path: str | None, rows) -> None:
+    """``rows`` appended to the CSV ``path`` under :data:`COLUMNS` (the header written when
+    the file is new or empty); a file whose header is not :data:`COLUMNS` is refused, naming
+    it, before anything is written (nothing when ``path`` is None)."""
+    if not path:
+        return
+    f = Path(path)
+    if f.exists() and f.stat().st_size:
+        with open(f, newline="") as fh:
+            header = next(csv.reader(fh), [])
+        if tuple(header) != COLUMNS:
+            raise SystemExit(f"bench_tip_lives: {f} has the columns {','.join(header)}, not "
+                             f"{','.join(COLUMNS)}: give --csv another file")
+        new = False
+    else:
+        f.parent.mkdir(parents=True, exist_ok=True)
+        new = True
+    with open(f, "a", newline="") as fh:
+        w = csv.writer(fh)
+        if new:
+            w.writerow(COLUMNS)
+        w.writerows(rows)
 
 
 def _q(a, f):
@@ -51,7 +83,9 @@ def main(argv=None) -> int:
     ap.add_argument("--csv", default=None)
     a = ap.parse_args(argv)
     base = load_scene(a.scene)
+    append_rows(a.csv, [])            # a file of other columns refused before the run
     k0 = a.k_lub[0]
+    ell = base.fatigue.process_length * 1e6
     run = item_run(base, a.position, k0, a.n, 1.0, reference_surfaces(base, a.ref))
     cycle, state = run.cycle, run.state
     surfaces, pits = contact_surfaces(state, cycle.grid, run.life.pit_contact)
@@ -84,7 +118,8 @@ def main(argv=None) -> int:
             with np.errstate(divide="ignore"):
                 to_z = np.where(wear[deep] > 0, z_f[deep] / np.where(wear[deep] > 0,
                                                                      wear[deep], 1.0), np.inf)
-            row = (a.position, k_lub, a.n, i + 1, int(fail.sum()), 100.0 * fail.mean(),
+            row = (scene_name(base), ell, a.position, k_lub, a.n, i + 1, int(fail.sum()),
+                   100.0 * fail.mean(),
                    100.0 * float((n_f < n_min).mean()) if n_f.size else 0.0,
                    100.0 * float((~deep).mean()) if n_f.size else 0.0,
                    _q(n_f, 0.1), _q(n_f, 0.5), _q(n_f, 0.9), _q(z_f, 0.5) * 1e6,
@@ -93,7 +128,7 @@ def main(argv=None) -> int:
                    _q(to_z, 0.5))
             rows.append(row)
             emit(row)
-    write_csv(a.csv, COLUMNS, rows)
+    append_rows(a.csv, rows)
     return 0
 
 
