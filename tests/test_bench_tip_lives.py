@@ -4,27 +4,13 @@ run appends under the same header, and a file of other columns is refused untouc
 from __future__ import annotations
 
 import csv
-import importlib.util
-import sys
-from pathlib import Path
 
 import pytest
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def _bench():
-    if str(ROOT / "benchmarks") not in sys.path:         # its sibling modules
-        sys.path.insert(0, str(ROOT / "benchmarks"))
-    spec = importlib.util.spec_from_file_location(
-        "bench_tip_lives", ROOT / "benchmarks" / "bench_tip_lives.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+from helpers import load_benchmark
 
 
 def test_rows_are_appended_under_one_header_and_other_columns_refused(tmp_path):
-    bench = _bench()
+    bench = load_benchmark("bench_tip_lives")
     assert bench.COLUMNS[:2] == ("scene", "process_length_um")
     row = ["paper_gear_z23", 5.0] + [1] * (len(bench.COLUMNS) - 2)
     path = tmp_path / "sub" / "tips.csv"

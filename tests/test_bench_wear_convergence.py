@@ -3,11 +3,10 @@ numbers, bit for bit, as a run straight through, and refuses a state written by 
 
 from __future__ import annotations
 
-import importlib.util
-import sys
 from pathlib import Path
 
 import pytest
+from helpers import load_benchmark
 
 from micropit_hpc.scene import load_scene
 
@@ -15,13 +14,7 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def _bench():
-    if str(ROOT / "benchmarks") not in sys.path:         # its sibling module ``table``
-        sys.path.insert(0, str(ROOT / "benchmarks"))
-    spec = importlib.util.spec_from_file_location(
-        "bench_wear_convergence", ROOT / "benchmarks" / "bench_wear_convergence.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
+    return load_benchmark("bench_wear_convergence")
 
 
 def test_a_run_continued_from_its_state_gives_the_straight_run_bit_for_bit(tmp_path):
