@@ -202,8 +202,8 @@ def history_buffer(size: int) -> np.ndarray:
     work item and grown to the largest asked for. A fresh array of tens of MB is a fresh
     ``mmap`` whose every page the kernel faults in at its first write, at every full
     evaluation of every body (docs/performance.md §2, "The history's buffer kept"); the items
-    of a rank run one after another, so they can share it. It is the
-    one chunk per rank that :mod:`micropit_hpc.estimate` counts. Its values are garbage:
+    of a rank run one after another, so they can share it. It is the one chunk per rank that
+    :mod:`micropit_hpc.estimate` counts. Its values are garbage:
     :meth:`PositionCycle.stress_history` writes every element before Dang Van reads it."""
     if not _HISTORY_BUFFER or _HISTORY_BUFFER[0].size < size:
         _HISTORY_BUFFER[:] = []             # the old one freed before the larger is made
