@@ -21,13 +21,12 @@ two: write the new rows elsewhere).
 from __future__ import annotations
 
 import argparse
-import csv
 import sys
 from pathlib import Path
 
 import numpy as np
 from bench_wear_convergence import item_run, reference_surfaces, scene_name
-from table import emit
+from table import append_csv, emit
 
 from micropit_hpc.life import contact_surfaces
 from micropit_hpc.scene import load_scene
@@ -44,27 +43,9 @@ COLUMNS = ("scene", "process_length_um", "position", "k_lub_s", "n", "body", "co
 
 
 def append_rows(path: str | None, rows) -> None:
-    """``rows`` appended to the CSV ``path`` under :data:`COLUMNS` (the header written when
-    the file is new or empty); a file whose header is not :data:`COLUMNS` is refused, naming
-    it, before anything is written (nothing when ``path`` is None)."""
-    if not path:
-        return
-    f = Path(path)
-    if f.exists() and f.stat().st_size:
-        with open(f, newline="") as fh:
-            header = next(csv.reader(fh), [])
-        if tuple(header) != COLUMNS:
-            raise SystemExit(f"bench_tip_lives: {f} has the columns {','.join(header)}, not "
-                             f"{','.join(COLUMNS)}: give --csv another file")
-        new = False
-    else:
-        f.parent.mkdir(parents=True, exist_ok=True)
-        new = True
-    with open(f, "a", newline="") as fh:
-        w = csv.writer(fh)
-        if new:
-            w.writerow(COLUMNS)
-        w.writerows(rows)
+    """``rows`` appended to the CSV ``path`` under :data:`COLUMNS` (:func:`table.append_csv`:
+    a file of other columns refused, naming it, before anything is written)."""
+    append_csv(path, COLUMNS, rows, "bench_tip_lives")
 
 
 def _q(a, f):

@@ -20,19 +20,6 @@ import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-
-
-def load_benchmark(name: str):
-    """The module ``benchmarks/<name>.py`` (benchmarks are scripts, not a package), with its
-    folder on ``sys.path`` for its sibling modules (``table``, ``bench_wear_convergence``)."""
-    import importlib.util
-
-    if str(ROOT / "benchmarks") not in sys.path:
-        sys.path.insert(0, str(ROOT / "benchmarks"))
-    spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
 SCENES = ROOT / "scenes"
 VALIDATION = ROOT / "validation"
 EPS = np.finfo(float).eps
@@ -322,3 +309,16 @@ def mixed_model(g, h_mean, eta0=0.05, S=0.3):
     u1, u2 = 2.0 * (1 + S / 2), 2.0 * (1 - S / 2)
     return MixedLubrication(g, geometry="line", load=3e5, R=0.01, b=2e-4, u1=u1, u2=u2,
                             h_mean=h_mean, E_prime=E_PRIME, **mixed_settings(eta0, 20e-9, 4.2e9))
+
+
+def load_benchmark(name: str):
+    """The module ``benchmarks/<name>.py`` (benchmarks are scripts, not a package), with its
+    folder on ``sys.path`` for its sibling modules (``table``, ``bench_wear_convergence``)."""
+    import importlib.util
+
+    if str(ROOT / "benchmarks") not in sys.path:
+        sys.path.insert(0, str(ROOT / "benchmarks"))
+    spec = importlib.util.spec_from_file_location(name, ROOT / "benchmarks" / f"{name}.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
