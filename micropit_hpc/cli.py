@@ -183,9 +183,12 @@ def _run(args, comm, control, log, t0) -> int:
         keep=_int_option("micropit_checkpoint_keep", 3),
         checkpoint_every=_int_option("micropit_checkpoint_every", 1), balance=args.balance)
     n_blocks = life_blocks(scene)
+    # the memory check before anything is allocated, then with the items' time steps
     estimate.check(scene, comm, args.ranks_per_item, opts.positions, n_blocks, log,
                    ignore_memory=args.ignore_memory_estimate)
     plan = make_plan(scene, opts.positions)     # every check, on every rank alike
+    estimate.check(scene, comm, args.ranks_per_item, opts.positions, n_blocks, log,
+                   ignore_memory=args.ignore_memory_estimate, plan=plan)
     lock = outdir.prepare(out, comm, restart=args.restart, overwrite=args.overwrite, log=log)
     if lock is not None:    # rank 0 notes a stop signal on disk at once (outdir.EXIT_RECORD)
         if control.signal_received:

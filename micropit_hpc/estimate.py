@@ -19,13 +19,23 @@ comes to the measured peaks, and the command that measures them, are in docs/per
 "Streamed stresses" (below about 64² the fixed CYCLE_MIB makes it an overestimate).
 The time is an order of magnitude only (the contact solver's iterations and the adaptive splits
 of a block vary with Λ and wear): about :data:`SECONDS_PER_POINT_LAYER_STEP` s per grid point,
-layer + 4, and time step, fitted to two whole runs at the converged default (adaptive blocks,
-implicit wear, the process length of 5 µm) on 2 ranks (docs/jobs.md, "The estimate")."""
+layer + 4, and time step of each item's load cycle, fitted to two whole runs at the converged
+default (adaptive blocks, implicit wear, the process length of 5 µm) on 2 ranks (docs/jobs.md,
+"The estimate"); the items' times are spread over the groups longest first, as the dynamic
+balance hands them out.
+
+The time steps are each item's own (:func:`item_steps`): ``window.steps`` raised by the
+kinematics, from the peak spacing of the patch's surfaces, as the run will choose them
+(:func:`~micropit_hpc.cycle.cycle_steps`). They are known only once the plan is made and the
+surfaces are drawn, so :func:`check` runs twice: before the plan with ``window.steps`` for every
+item (a window too large for the node is refused before a surface is allocated), then with the
+plan, whose estimate is the one printed."""
 
 from __future__ import annotations
 
 import math
 import os
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -38,12 +48,16 @@ TRANSIENT_B_PER_POINT = 1400.0
 STEP_B_PER_POINT = 80.0
 STRESS_B_PER_POINT_LAYER_STEP = 60.0
 ITEM_B_PER_POINT = 1100.0
-SECONDS_PER_POINT_LAYER_STEP = 4.5e-6
+SECONDS_PER_POINT_LAYER_STEP = 3.9e-6
 GIB = 2.0 ** 30
 
 
 @dataclass(frozen=True)
 class Estimate:
+    """A run's estimate: ``item_block_s`` the mean of the items' block times, ``total_s`` the
+    run's (the busiest group's blocks), ``steps`` the fewest and most time steps of the items'
+    load cycles."""
+
     items: int
     groups: int
     items_per_group: int
@@ -53,15 +67,18 @@ class Estimate:
     available_bytes: float | None
     item_block_s: float
     total_s: float
+    steps: tuple[int, int]
 
     def line(self) -> str:
         avail = (f" of {self.available_bytes / GIB:.3g} GiB available"
                  if self.available_bytes else "")
+        lo, hi = self.steps
+        steps = f"{lo}" if lo == hi else f"{lo}–{hi}"
         return (f"estimate: {self.items} work items in {self.groups} groups (≤ "
                 f"{self.items_per_group} per group): ~{self.per_rank_bytes / GIB:.3g} GiB per "
                 f"rank (rank 0 {self.rank0_bytes / GIB:.3g} GiB), "
                 f"~{self.node_bytes / GIB:.3g} GiB on this node{avail}; "
-                f"~{_duration(self.item_block_s)} per item and block, "
+                f"~{_duration(self.item_block_s)} per item and block ({steps} time steps), "
                 f"~{_duration(self.total_s)} in all (order of magnitude)")
 
 
@@ -101,29 +118,65 @@ def n_positions(scene, positions) -> int:
     return p.count if p.kind == "count" else len(p.values)
 
 
+def item_steps(plan) -> tuple[int, ...]:
+    """The time steps of each work item's load cycle (in ``plan.items`` order), as its
+    :class:`~micropit_hpc.study.ItemRun` chooses them: ``window.steps`` raised by the
+    kinematics at the item's position, from the peak spacing of its patch's surfaces
+    (:func:`~micropit_hpc.cycle.cycle_steps`; a roughness scale changes no spacing). Draws
+    each patch's surfaces once (or reads them: measured maps)."""
+    from micropit_hpc.cycle import counterface_spacing, cycle_steps
+    from micropit_hpc.surfaces.bodies import body_surface
+
+    grid, spacing, out = plan.window.grid, {}, []
+    for it in plan.items:
+        if it.patch not in spacing:
+            surfaces = [body_surface(plan.scene, i, grid, it.patch) for i in (1, 2)]
+            spacing[it.patch] = counterface_spacing(plan.scene, surfaces, grid.dx)
+        out.append(cycle_steps(plan.scene, plan.conditions(it.position), spacing[it.patch])[0])
+    return tuple(out)
+
+
+def busiest_group(times: Sequence[float], groups: int) -> float:
+    """The longest total of ``times`` in any of ``groups`` groups when each next-longest
+    time goes to the group with the least so far (longest-processing-time first, as the
+    dynamic balance hands out a block's items costliest first: Plan.queue_order)."""
+    load = [0.0] * max(1, groups)
+    for t in sorted(times, reverse=True):
+        i = load.index(min(load))
+        load[i] += t
+    return max(load)
+
+
 def estimate(scene, size: int, ranks_per_item: int, positions, blocks: int,
-             local_ranks: int) -> Estimate:
-    """The estimate for ``scene`` on ``size`` ranks (``local_ranks`` of them on this node)."""
+             local_ranks: int, steps: Sequence[int] | None = None) -> Estimate:
+    """The estimate for ``scene`` on ``size`` ranks (``local_ranks`` of them on this node);
+    ``steps``: each item's time steps (:func:`item_steps`; None: ``window.steps`` for all)."""
     w = scene.window
     points = w.nx * (w.ny or w.nx)
     layers = scene.stress.layers
     items = (n_positions(scene, positions) * len(scene.wear.k_lub)
              * len(scene.roughness_scale) * scene.patches)
+    steps = (w.steps,) * items if steps is None else tuple(steps)
+    if len(steps) != items:
+        raise ValueError(f"estimate: {len(steps)} items' steps for {items} items")
+    most = max(steps, default=w.steps)
     groups = max(1, size // max(1, ranks_per_item))
     per_group = math.ceil(items / groups)
     r = max(1, ranks_per_item)
-    chunk = history_chunk_layers(layers, w.steps, math.ceil(points / r))
+    chunk = history_chunk_layers(layers, most, math.ceil(points / r))
     transient = CYCLE_MIB * 2 ** 20 + points * (
-        TRANSIENT_B_PER_POINT + STEP_B_PER_POINT * w.steps
-        + STRESS_B_PER_POINT_LAYER_STEP * chunk * w.steps) / r
+        TRANSIENT_B_PER_POINT + STEP_B_PER_POINT * most
+        + STRESS_B_PER_POINT_LAYER_STEP * chunk * most) / r
     held = per_group * points * (ITEM_B_PER_POINT + 32.0 * layers) / r
     per_rank = PROCESS_MIB * 2 ** 20 + transient + held
     maps = items * points * 8.0 * 2 * (layers + 6)   # every item's final maps on rank 0
     rank0 = per_rank + maps
     node = per_rank * max(0, local_ranks - 1) + rank0
-    block_s = SECONDS_PER_POINT_LAYER_STEP * points * (layers + 4) * w.steps / r
+    times = [SECONDS_PER_POINT_LAYER_STEP * points * (layers + 4) * m / r for m in steps]
+    mean = sum(times) / len(times) if times else 0.0
     return Estimate(items, groups, per_group, per_rank, rank0, node, available_memory(),
-                    block_s, block_s * per_group * blocks)
+                    mean, busiest_group(times, groups) * blocks,
+                    (min(steps, default=w.steps), most))
 
 
 def npy_too_large(scene, available: float | None) -> str | None:
@@ -153,14 +206,20 @@ def npy_too_large(scene, available: float | None) -> str | None:
 
 
 def check(scene, comm, ranks_per_item: int, positions, blocks: int, log,
-          ignore_memory: bool = False) -> Estimate:
-    """Print the estimate (rank 0) and refuse the run (collective error on every rank) when
-    it does not fit this node's memory, unless ``ignore_memory``."""
+          ignore_memory: bool = False, plan=None) -> Estimate:
+    """Refuse the run (collective error on every rank) when it does not fit this node's
+    memory, unless ``ignore_memory``; with the ``plan``, the items' own time steps
+    (:func:`item_steps`, rank 0) and the estimate printed (rank 0, by ``log``); without, every
+    item at ``window.steps`` and nothing printed unless refused (the check before the plan:
+    module docstring)."""
     local = _local_ranks(comm)
-    est = estimate(scene, comm.size, ranks_per_item, positions, blocks, local)
-    problem = None
+    problem, steps = None, None
+    if comm.rank == 0 and plan is not None:
+        steps = item_steps(plan)
+    est = estimate(scene, comm.size, ranks_per_item, positions, blocks, local, steps)
     if comm.rank == 0:
-        log(est.line())
+        if plan is not None:
+            log(est.line())
         problem = npy_too_large(scene, est.available_bytes)
         if problem is None and est.available_bytes and est.node_bytes > est.available_bytes \
                 and not ignore_memory:

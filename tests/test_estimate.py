@@ -41,6 +41,57 @@ def test_the_estimate_is_printed_and_grows_with_the_window(tmp_path, capsys):
     assert b.total_s > 500 * a.total_s
 
 
+def test_the_items_time_steps_are_those_their_runs_choose():
+    """item_steps: each item's load cycle as its ItemRun raises it by the kinematics (here
+    from window.steps = 8 to 12 and 68 at |S| = 0.05 and 0.3)."""
+    from micropit_hpc.plan import make_plan
+    from micropit_hpc.study import ItemRun
+
+    doc = tiny_doc(slide_roll=(0.05, 0.3))
+    doc["window"]["steps_per_peak_spacing"] = 24.0
+    scene = scene_from_dict(doc, "t.toml")
+    plan = make_plan(scene)
+    steps = estimate.item_steps(plan)
+    assert steps == tuple(ItemRun(scene, it, plan.study).cycle.steps for it in plan.items)
+    assert len(set(steps)) == 2 and min(steps) > scene.window.steps
+
+
+def test_the_estimate_follows_each_items_time_steps():
+    """Memory from the most steps of any item, time from each item's steps, the items spread
+    over the groups longest first."""
+    scene = scene_from_dict(tiny_doc(slide_roll=(0.05, 0.3, 0.5)), "t.toml")
+    m = scene.window.steps
+    flat = estimate.estimate(scene, 2, 1, None, 2, 2)
+    assert flat.steps == (m, m)
+    raised = estimate.estimate(scene, 2, 1, None, 2, 2, (m, 2 * m, 4 * m))
+    assert raised.steps == (m, 4 * m) and raised.per_rank_bytes > flat.per_rank_bytes
+    one = flat.item_block_s
+    assert raised.item_block_s == pytest.approx(one * 7 / 3, rel=1e-12)
+    # 4m alone in one group, m + 2m in the other: the busiest group's 4 units per block
+    assert raised.total_s == pytest.approx(2 * 4 * one, rel=1e-12)
+    assert flat.total_s == pytest.approx(2 * 2 * one, rel=1e-12)
+    assert f"({m}–{4 * m} time steps)" in raised.line() and f"({m} time steps)" in flat.line()
+    with pytest.raises(ValueError, match="2 items' steps for 3 items"):
+        estimate.estimate(scene, 2, 1, None, 2, 2, (m, m))
+
+
+def test_the_busiest_group_takes_the_longest_items_first():
+    assert estimate.busiest_group([2, 3, 2, 3, 2], 2) == 7       # 3+2+2 | 3+2
+    assert estimate.busiest_group([5, 1, 1, 1], 2) == 5
+    assert estimate.busiest_group([1.0] * 6, 3) == 2
+    assert estimate.busiest_group([], 4) == 0
+
+
+@pytest.mark.slow
+def test_the_printed_estimate_names_the_raised_time_steps(tmp_path, capsys):
+    doc = tiny_doc(slide_roll=(0.05,))
+    doc["window"]["steps_per_peak_spacing"] = 24.0
+    assert run(tmp_path, doc) == 0
+    line = next(ln for ln in capsys.readouterr().err.splitlines()
+                if ln.startswith("# estimate: "))
+    assert "(12 time steps)" in line
+
+
 @pytest.mark.slow
 def test_a_window_of_8192_is_refused_with_the_estimate(tmp_path, capsys):
     doc = tiny_doc(slide_roll=(0.3,))
