@@ -39,6 +39,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
+from micropit_hpc.errors import MicropitError
 from micropit_hpc.mechanics.halfspace import history_chunk_layers
 from micropit_hpc.parallel.share import raise_agreed
 
@@ -215,9 +216,12 @@ def check(scene, comm, ranks_per_item: int, positions, blocks: int, log,
     local = _local_ranks(comm)
     problem, steps = None, None
     if comm.rank == 0 and plan is not None:
-        steps = item_steps(plan)
+        try:            # rank 0 alone draws the surfaces: its error must reach every rank
+            steps = item_steps(plan)
+        except MicropitError as e:
+            problem = str(e)
     est = estimate(scene, comm.size, ranks_per_item, positions, blocks, local, steps)
-    if comm.rank == 0:
+    if comm.rank == 0 and problem is None:
         if plan is not None:
             log(est.line())
         problem = npy_too_large(scene, est.available_bytes)
