@@ -5,8 +5,8 @@ with ``window.steps`` for every item (the estimate before 2026-12-03, at its con
 measured seconds when given as ``SCENE=SECONDS``. No run is made: only the plans and the
 patches' surfaces.
 
-    python benchmarks/bench_estimate.py scenes/quick.toml=25.4 /tmp/study33.toml=521 \\
-        --fit /tmp/study33.toml scenes/quick.toml
+    python benchmarks/bench_estimate.py scenes/quick.toml=25.4 study33.toml=521 \\
+        scenes/gear_z30_45.toml --fit study33.toml scenes/quick.toml
 
 ``--fit`` prints the constant that makes the geometric mean of measured / estimated 1 over the
 scenes named (each needs its measured seconds), as SECONDS_PER_POINT_LAYER_STEP was fitted."""
